@@ -1,0 +1,52 @@
+"""liebody: geometric integrators for rigid-body rotation on SO(3).
+
+Conventions (every function follows them)
+-----------------------------------------
+* Quaternions are scalar-first ``(w, x, y, z)``, unit, and rotate body to space:
+  ``r_space = R(q) r_body``. scipy's ``Rotation`` is scalar-last; use
+  :func:`liebody.quaternion.to_scipy` / :func:`~liebody.quaternion.from_scipy`.
+* The body frame is the principal-axis frame of the :class:`RigidBody`; ``L`` and
+  ``omega`` are body-frame unless the name says ``_space``.
+* Euler angles are the reference text's z-x-z ``(phi, theta, psi)`` with
+  ``V = V1(phi) V2(theta) V3(psi)`` mapping body to space coordinates.
+* float64 throughout.
+
+Importing the package is cheap: submodules (and numba) are loaded on first
+attribute access, and numba kernels compile on first use (cached on disk).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+__version__ = "0.1.0"
+
+# public name -> (module, attribute or None for the module itself)
+_LAZY: dict[str, tuple[str, str | None]] = {
+    "quaternion": ("liebody.quaternion", None),
+    "euler": ("liebody.euler", None),
+    "inertia": ("liebody.inertia", None),
+    "RigidBody": ("liebody.body", "RigidBody"),
+}
+
+__all__ = sorted(_LAZY) + ["__version__"]
+
+if TYPE_CHECKING:  # pragma: no cover
+    from liebody import euler, inertia, quaternion  # noqa: F401
+    from liebody.body import RigidBody  # noqa: F401
+
+
+def __getattr__(name: str):
+    try:
+        module_name, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'liebody' has no attribute {name!r}") from None
+    module = importlib.import_module(module_name)
+    value = module if attr is None else getattr(module, attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,25 @@
+"""Command line: ``python -m liebody demo [--plot DIR]``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m liebody",
+                                     description="liebody: rigid-body rotation on SO(3)")
+    sub = parser.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="a short tour, checked against the reference text")
+    demo.add_argument("--plot", metavar="DIR", default=None,
+                      help="also write PNG figures to DIR (needs the 'plot' extra)")
+    args = parser.parse_args(argv)
+    if args.command == "demo":
+        from liebody.demo import run
+
+        return run(plot_dir=args.plot)
+    return 2  # pragma: no cover - argparse rejects unknown commands
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,236 @@
+"""Quaternion algebra kernels (numba, float64, scalar-first ``(w, x, y, z)``).
+
+Two layers:
+
+* scalar kernels that take and return components as tuples. They allocate
+  nothing and are what the integrator hot loops call;
+* batch kernels over ``(n, 4)`` / ``(n, 3)`` / ``(n, 3, 3)`` arrays writing into a
+  caller-provided ``out``; :mod:`liebody.quaternion` wraps them with validation
+  and broadcasting.
+
+A unit quaternion ``q`` rotates body to space: ``v_space = q (0, v) q*``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+# --------------------------------------------------------------------------------------
+# scalar kernels
+# --------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def qmul(aw, ax, ay, az, bw, bx, by, bz):
+    """Hamilton product ``a * b``."""
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+@njit(cache=True)
+def qrotate(w, x, y, z, vx, vy, vz):
+    """``R(q) v`` for a unit quaternion, via ``v + 2 u x (u x v + w v)``, ``u = (x, y, z)``."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (
+        vx + w * tx + (y * tz - z * ty),
+        vy + w * ty + (z * tx - x * tz),
+        vz + w * tz + (x * ty - y * tx),
+    )
+
+
+@njit(cache=True)
+def qrotate_inv(w, x, y, z, vx, vy, vz):
+    """``R(q)^T v`` (space to body) for a unit quaternion."""
+    return qrotate(w, -x, -y, -z, vx, vy, vz)
+
+
+@njit(cache=True)
+def qexp(rx, ry, rz):
+    """Unit quaternion of the rotation vector ``r`` (angle ``|r|`` about ``r/|r|``).
+
+    ``(cos(|r|/2), sin(|r|/2) r/|r|)``; the factor ``sin(a/2)/a`` is evaluated by
+    its Taylor series for ``a < 1e-3`` so the map is exact to round-off near 0.
+    """
+    a2 = rx * rx + ry * ry + rz * rz
+    a = math.sqrt(a2)
+    if a < 1e-3:
+        # sin(a/2)/a = 1/2 - a^2/48 + a^4/3840 - ...; cos(a/2) = 1 - a^2/8 + a^4/384
+        s = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+    else:
+        s = math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+    return c, s * rx, s * ry, s * rz
+
+
+@njit(cache=True)
+def qlog(w, x, y, z):
+    """Rotation vector of a unit quaternion, angle in ``[0, pi]``.
+
+    ``q`` and ``-q`` give the same result (the short rotation is returned).
+    Uses ``atan2`` so it is accurate at all angles, including near 0 and pi.
+    """
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    n = math.sqrt(x * x + y * y + z * z)
+    if n < 1e-8:
+        # angle = 2 atan2(n, w) ~ 2 n / w (1 - n^2/(3 w^2)); factor = angle / n
+        f = 2.0 / w * (1.0 - n * n / (3.0 * w * w))
+    else:
+        f = 2.0 * math.atan2(n, w) / n
+    return f * x, f * y, f * z
+
+
+@njit(cache=True)
+def qnormalize(w, x, y, z):
+    """``q / |q|`` (scaled to avoid overflow/underflow)."""
+    m = max(abs(w), abs(x), abs(y), abs(z))
+    w, x, y, z = w / m, x / m, y / m, z / m
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    return w / n, x / n, y / n, z / n
+
+
+@njit(cache=True)
+def qaxis_rotation(w, x, y, z, axis, s, c):
+    """``q * (c, s e_axis)``: right-multiply by a rotation about body axis ``axis`` (0, 1, 2).
+
+    ``c = cos(theta/2)``, ``s = sin(theta/2)`` for a rotation by ``theta``. Costs 8
+    multiplications: this is the orientation part of an exact axis sub-flow.
+    """
+    if axis == 0:
+        return (c * w - s * x, c * x + s * w, c * y + s * z, c * z - s * y)
+    elif axis == 1:
+        return (c * w - s * y, c * x - s * z, c * y + s * w, c * z + s * x)
+    else:
+        return (c * w - s * z, c * x + s * y, c * y - s * x, c * z + s * w)
+
+
+# --------------------------------------------------------------------------------------
+# batch kernels over rows
+# --------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def multiply_rows(a, b, out):
+    for i in range(out.shape[0]):
+        r = qmul(a[i, 0], a[i, 1], a[i, 2], a[i, 3], b[i, 0], b[i, 1], b[i, 2], b[i, 3])
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = r
+    return out
+
+
+@njit(cache=True)
+def rotate_rows(q, v, out):
+    for i in range(out.shape[0]):
+        r = qrotate(q[i, 0], q[i, 1], q[i, 2], q[i, 3], v[i, 0], v[i, 1], v[i, 2])
+        out[i, 0], out[i, 1], out[i, 2] = r
+    return out
+
+
+@njit(cache=True)
+def exp_rows(r, out):
+    for i in range(out.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qexp(r[i, 0], r[i, 1], r[i, 2])
+    return out
+
+
+@njit(cache=True)
+def log_rows(q, out):
+    for i in range(out.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = qlog(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
+    return out
+
+
+@njit(cache=True)
+def normalize_rows(q, out):
+    for i in range(out.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qnormalize(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
+    return out
+
+
+@njit(cache=True)
+def to_matrix_rows(q, out):
+    """Rotation matrices ``R(q)`` (space <- body) of unit quaternions."""
+    for i in range(out.shape[0]):
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        xx, yy, zz = x * x, y * y, z * z
+        xy, xz, yz = x * y, x * z, y * z
+        wx, wy, wz = w * x, w * y, w * z
+        out[i, 0, 0] = 1.0 - 2.0 * (yy + zz)
+        out[i, 0, 1] = 2.0 * (xy - wz)
+        out[i, 0, 2] = 2.0 * (xz + wy)
+        out[i, 1, 0] = 2.0 * (xy + wz)
+        out[i, 1, 1] = 1.0 - 2.0 * (xx + zz)
+        out[i, 1, 2] = 2.0 * (yz - wx)
+        out[i, 2, 0] = 2.0 * (xz - wy)
+        out[i, 2, 1] = 2.0 * (yz + wx)
+        out[i, 2, 2] = 1.0 - 2.0 * (xx + yy)
+    return out
+
+
+@njit(cache=True)
+def from_matrix_rows(m, out):
+    """Unit quaternions (``w >= 0``) from rotation matrices, Shepperd's method.
+
+    The largest of ``4w^2, 4x^2, 4y^2, 4z^2`` (read off the trace and diagonal) is
+    computed by a square root and the other three by division by it, so no
+    component is obtained from a difference of nearly equal numbers.
+    """
+    for i in range(out.shape[0]):
+        m00, m01, m02 = m[i, 0, 0], m[i, 0, 1], m[i, 0, 2]
+        m10, m11, m12 = m[i, 1, 0], m[i, 1, 1], m[i, 1, 2]
+        m20, m21, m22 = m[i, 2, 0], m[i, 2, 1], m[i, 2, 2]
+        tr = m00 + m11 + m22
+        if tr >= m00 and tr >= m11 and tr >= m22:
+            s = math.sqrt(1.0 + tr) * 2.0  # 4w
+            w = 0.25 * s
+            x = (m21 - m12) / s
+            y = (m02 - m20) / s
+            z = (m10 - m01) / s
+        elif m00 >= m11 and m00 >= m22:
+            s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0  # 4x
+            w = (m21 - m12) / s
+            x = 0.25 * s
+            y = (m01 + m10) / s
+            z = (m02 + m20) / s
+        elif m11 >= m22:
+            s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0  # 4y
+            w = (m02 - m20) / s
+            x = (m01 + m10) / s
+            y = 0.25 * s
+            z = (m12 + m21) / s
+        else:
+            s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0  # 4z
+            w = (m10 - m01) / s
+            x = (m02 + m20) / s
+            y = (m12 + m21) / s
+            z = 0.25 * s
+        if w < 0.0:
+            w, x, y, z = -w, -x, -y, -z
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qnormalize(w, x, y, z)
+    return out
+
+
+@njit(cache=True)
+def slerp_rows(a, b, t, out):
+    """Spherical linear interpolation along the short arc from ``a`` to ``b``."""
+    for i in range(out.shape[0]):
+        aw, ax, ay, az = a[i, 0], a[i, 1], a[i, 2], a[i, 3]
+        bw, bx, by, bz = b[i, 0], b[i, 1], b[i, 2], b[i, 3]
+        d = aw * bw + ax * bx + ay * by + az * bz
+        if d < 0.0:
+            bw, bx, by, bz, d = -bw, -bx, -by, -bz, -d
+        # relative rotation r = a* b, then a * exp(t log r): accurate for tiny angles too
+        rw, rx, ry, rz = qmul(aw, -ax, -ay, -az, bw, bx, by, bz)
+        lx, ly, lz = qlog(rw, rx, ry, rz)
+        ti = t[i]
+        ew, ex, ey, ez = qexp(ti * lx, ti * ly, ti * lz)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qmul(aw, ax, ay, az, ew, ex, ey, ez)
+    return out

@@ -1,0 +1,303 @@
+"""The :class:`RigidBody`: principal moments, principal axes, ``T`` and ``L`` of a body.
+
+Implements sections 1.3 (principal axes and the principal axis transformation) and
+1.3.1 (``L`` in the principal axis system) of the reference text
+(``rigid-body-dynamics-notes.md``); the zero-moment check is motivated by the
+dumbbell of section 1.4.1. Plain NumPy, float64.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from liebody._validate import as_float_array, as_positive_float
+from liebody.inertia import _check_symmetric, tensor
+
+__all__ = ["DEGENERACY_RTOL", "TRIANGLE_RTOL", "ZERO_RTOL", "RigidBody"]
+
+#: A principal moment ``|I_k| <= ZERO_RTOL * max_i |I_i|`` is treated as zero.
+ZERO_RTOL = 1e-12
+
+#: ``I_i + I_j >= I_k - TRIANGLE_RTOL * max(I)`` is accepted (planar bodies sit on equality).
+TRIANGLE_RTOL = 1e-12
+
+#: Two moments are equal (a degenerate spectrum) when ``|I_i - I_j| <= DEGENERACY_RTOL * max(I)``.
+DEGENERACY_RTOL = 1e-10
+
+_AXIS_NAMES = ("I1", "I2", "I3")
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr = np.array(arr, dtype=np.float64, copy=True)
+    arr.flags.writeable = False
+    return arr
+
+
+def _principal_axes(sym: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ascending eigenvalues and a proper rotation of eigenvectors with fixed signs.
+
+    Columns 1 and 2 are signed so that their largest-magnitude component (the first,
+    on a tie) is positive; column 3 is their cross product, so ``det = +1``.
+    """
+    w, V = np.linalg.eigh(sym)
+    V = V.copy()
+    for k in (0, 1):
+        col = V[:, k]
+        if col[int(np.argmax(np.abs(col)))] < 0:
+            V[:, k] = -col
+    V[:, 2] = np.cross(V[:, 0], V[:, 1])
+    return w, V
+
+
+class RigidBody:
+    """A rigid body described by its principal moments of inertia.
+
+    Section 1.3 of the reference text: a real symmetric inertia tensor is diagonalised
+    by a rotation, ``I = A diag(I1, I2, I3) A^T``, whose columns are the principal
+    axes. The body frame used by every other part of liebody is this principal frame:
+    ``omega`` and ``L`` are components along the principal axes (section 1.3.1:
+    ``L_k = I_k omega_k`` and ``T = 1/2 sum_k I_k omega_k^2``).
+
+    Parameters
+    ----------
+    inertia : array_like, shape (3,) or (3, 3)
+        Either the three principal moments ``(I1, I2, I3)`` -- kept **in the given
+        order**, which defines body axes 1, 2, 3, with ``axes`` the identity -- or a
+        symmetric inertia tensor in some input frame, which is diagonalised with
+        :func:`numpy.linalg.eigh` (moments in **ascending** order).
+    mass : float, optional
+        Total mass (``> 0``), or ``None`` (default) when only the rotation matters.
+    check_triangle : bool, default True
+        Reject principal moments that violate the triangle inequality
+        ``I_i + I_j >= I_k``: no distribution of positive mass has them. Pass
+        ``False`` to study such bodies anyway, e.g. the Hairer--Lubich--Wanner test
+        problem ``I = (2, 1, 2/3)``.
+
+    Raises
+    ------
+    TypeError
+        ``inertia`` is not real-valued, ``mass`` not a real number, or
+        ``check_triangle`` not a bool.
+    ValueError
+        ``inertia`` has the wrong shape, is not finite, is a non-symmetric tensor
+        (``max|I - I^T| > 1e-12 max|I|``), has a negative principal moment, has a zero
+        principal moment (``<= ZERO_RTOL * max``: an ideal rod or the dumbbell of
+        section 1.4.1 has no finite rotational dynamics about its axis), or violates
+        the triangle inequality beyond ``TRIANGLE_RTOL * max`` (unless
+        ``check_triangle=False``); ``mass`` is not finite and positive.
+
+    Attributes
+    ----------
+    moments : numpy.ndarray, shape (3,)
+        Principal moments ``(I1, I2, I3)`` (read-only).
+    axes : numpy.ndarray, shape (3, 3)
+        Proper rotation (``det = +1``) whose columns are the principal axes expressed
+        in the input frame, so ``inertia_tensor == axes @ diag(moments) @ axes.T``
+        (read-only). For tensor input the signs are deterministic: columns 1 and 2
+        have their largest-magnitude component positive and column 3 is their cross
+        product.
+    inertia_tensor : numpy.ndarray, shape (3, 3)
+        The inertia tensor in the input frame (read-only).
+    mass : float or None
+    symmetry_axis : int or None
+        Index (0, 1 or 2) of the distinct moment when exactly two moments are equal
+        (a symmetric top), else ``None``. Moments are equal when they differ by at
+        most ``DEGENERACY_RTOL * max(moments)`` (``1e-10``); when two different pairs
+        are equal to that tolerance the body counts as spherical.
+    is_symmetric : bool
+        Exactly two moments equal (a symmetric top, not a sphere).
+    is_spherical : bool
+        All three moments equal (a spherical top).
+    free_axes : tuple of int
+        Indices of the principal axes that the inertia does not determine: ``()``
+        for an asymmetric body, the two equal-moment indices for a symmetric top (any
+        orthonormal pair in their plane, i.e. any rotation of ``axes`` about the
+        symmetry axis, is equally principal), ``(0, 1, 2)`` for a spherical top
+        (every frame is principal). ``axes`` is still a valid proper rotation; which
+        one is returned is deterministic but conventional.
+    """
+
+    __slots__ = ("_axes", "_free_axes", "_mass", "_moments", "_symmetry_axis", "_tensor")
+
+    def __init__(self, inertia, mass: float | None = None, check_triangle: bool = True) -> None:
+        if not isinstance(check_triangle, bool | np.bool_):
+            raise TypeError(
+                f"check_triangle must be a bool, got {type(check_triangle).__name__}"
+            )
+        arr = as_float_array("inertia", inertia)
+        if arr.shape == (3,):
+            moments = arr.copy()
+            axes = np.eye(3)
+            tensor_input = False
+        elif arr.shape == (3, 3):
+            moments, axes = _principal_axes(_check_symmetric("inertia", arr))
+            tensor_input = True
+        else:
+            raise ValueError(
+                "inertia must be three principal moments, shape (3,), or a symmetric "
+                f"3x3 tensor, shape (3, 3); got shape {arr.shape}"
+            )
+        self._check_moments(moments, tensor_input, bool(check_triangle))
+
+        self._moments = _readonly(moments)
+        self._axes = _readonly(axes)
+        t = (axes * moments) @ axes.T
+        self._tensor = _readonly(0.5 * (t + t.T))
+        self._mass = None if mass is None else as_positive_float("mass", mass)
+
+        scale = float(np.max(moments))
+        equal = [
+            (i, j)
+            for i, j in ((0, 1), (0, 2), (1, 2))
+            if abs(moments[i] - moments[j]) <= DEGENERACY_RTOL * scale
+        ]
+        if len(equal) >= 2:
+            self._symmetry_axis = None
+            self._free_axes: tuple[int, ...] = (0, 1, 2)
+        elif len(equal) == 1:
+            self._free_axes = equal[0]
+            self._symmetry_axis = 3 - sum(equal[0])
+        else:
+            self._symmetry_axis = None
+            self._free_axes = ()
+
+    @staticmethod
+    def _check_moments(moments: np.ndarray, tensor_input: bool, check_triangle: bool) -> None:
+        what = "eigenvalue of the inertia tensor" if tensor_input else "principal moment"
+        scale = float(np.max(np.abs(moments)))
+        for k in range(3):
+            if moments[k] < -ZERO_RTOL * scale:
+                raise ValueError(
+                    f"inertia must be positive definite: {what} {_AXIS_NAMES[k]} = "
+                    f"{float(moments[k])!r} is negative; moments of inertia are > 0"
+                )
+        for k in range(3):
+            if abs(moments[k]) <= ZERO_RTOL * scale:
+                raise ValueError(
+                    f"inertia has a zero principal moment ({what} {_AXIS_NAMES[k]} = "
+                    f"{float(moments[k])!r}, below {ZERO_RTOL:.0e} x the largest): an ideal thin "
+                    "rod or dumbbell (all mass on one line, reference text section 1.4.1, "
+                    "I3 = 0) has no finite rotational dynamics about that axis "
+                    "(omega = L / I is undefined). Give it a small thickness, e.g. "
+                    "liebody.inertia.solid_cylinder instead of thin_rod."
+                )
+        if check_triangle:
+            for k in range(3):
+                i, j = (k + 1) % 3, (k + 2) % 3
+                if moments[i] + moments[j] < moments[k] - TRIANGLE_RTOL * scale:
+                    ni, nj, nk = (_AXIS_NAMES[n] for n in sorted((i, j)) + [k])
+                    raise ValueError(
+                        "inertia principal moments violate the triangle inequality "
+                        f"I_i + I_j >= I_k: {ni} + {nj} = {float(moments[i] + moments[j])!r} < "
+                        f"{nk} = {float(moments[k])!r}. No real body has these moments; pass "
+                        "check_triangle=False to use them anyway (e.g. the "
+                        "Hairer-Lubich-Wanner test problem I = (2, 1, 2/3))."
+                    )
+
+    # ----------------------------------------------------------------------------------
+    # constructors
+    # ----------------------------------------------------------------------------------
+
+    @classmethod
+    def from_point_masses(
+        cls, masses, positions, origin=None, *, check_triangle: bool = True
+    ) -> RigidBody:
+        """Body made of point masses; see :func:`liebody.inertia.tensor`.
+
+        The tensor is taken about ``origin`` (default: the centre of mass; another
+        point is a fixed point, section 1.1) and diagonalised; ``mass`` is the total
+        mass.
+        """
+        I = tensor(masses, positions, origin)
+        total = float(np.sum(np.asarray(masses, dtype=np.float64)))
+        return cls(I, mass=total, check_triangle=check_triangle)
+
+    # ----------------------------------------------------------------------------------
+    # read-only attributes
+    # ----------------------------------------------------------------------------------
+
+    @property
+    def moments(self) -> np.ndarray:
+        """Principal moments ``(I1, I2, I3)``, shape (3,)."""
+        return self._moments
+
+    @property
+    def axes(self) -> np.ndarray:
+        """Principal axes as the columns of a proper rotation, input frame."""
+        return self._axes
+
+    @property
+    def inertia_tensor(self) -> np.ndarray:
+        """``axes @ diag(moments) @ axes.T``: the inertia tensor in the input frame."""
+        return self._tensor
+
+    @property
+    def mass(self) -> float | None:
+        """Total mass, or ``None``."""
+        return self._mass
+
+    @property
+    def symmetry_axis(self) -> int | None:
+        """Index of the distinct moment of a symmetric top, else ``None``."""
+        return self._symmetry_axis
+
+    @property
+    def is_symmetric(self) -> bool:
+        """Exactly two equal moments (symmetric, not spherical, top)."""
+        return self._symmetry_axis is not None
+
+    @property
+    def is_spherical(self) -> bool:
+        """All three moments equal."""
+        return len(self._free_axes) == 3
+
+    @property
+    def free_axes(self) -> tuple[int, ...]:
+        """Indices of principal axes not fixed by the inertia (degenerate moments)."""
+        return self._free_axes
+
+    # ----------------------------------------------------------------------------------
+    # dynamics helpers (section 1.3 / 1.3.1), vectorised over (..., 3)
+    # ----------------------------------------------------------------------------------
+
+    def kinetic_energy(self, omega) -> np.ndarray | float:
+        """Rotational kinetic energy ``T = 1/2 sum_k I_k omega_k^2`` (section 1.3).
+
+        Parameters
+        ----------
+        omega : array_like, shape (..., 3)
+            Angular velocity, principal-frame (body) components.
+
+        Returns
+        -------
+        float or numpy.ndarray, shape (...)
+        """
+        w = as_float_array("omega", omega, last_dim=3)
+        return 0.5 * np.sum(self._moments * w * w, axis=-1)
+
+    def angular_momentum(self, omega) -> np.ndarray:
+        """Body angular momentum ``L_k = I_k omega_k`` (section 1.3.1), shape (..., 3)."""
+        w = as_float_array("omega", omega, last_dim=3)
+        return self._moments * w
+
+    def angular_velocity(self, L) -> np.ndarray:
+        """Body angular velocity ``omega_k = L_k / I_k``, the inverse of
+        :meth:`angular_momentum`, shape (..., 3)."""
+        Lb = as_float_array("L", L, last_dim=3)
+        return Lb / self._moments
+
+    def to_principal(self, v) -> np.ndarray:
+        """Components along the principal axes of a vector given in the input frame:
+        ``axes.T @ v``, vectorised over (..., 3)."""
+        x = as_float_array("v", v, last_dim=3)
+        return x @ self._axes
+
+    def from_principal(self, v) -> np.ndarray:
+        """Input-frame components of a vector given along the principal axes:
+        ``axes @ v``, vectorised over (..., 3)."""
+        x = as_float_array("v", v, last_dim=3)
+        return x @ self._axes.T
+
+    def __repr__(self) -> str:
+        moments = [float(x) for x in self._moments]
+        return f"RigidBody(moments={moments!r}, mass={self._mass!r})"

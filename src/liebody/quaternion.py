@@ -1,0 +1,267 @@
+"""Unit quaternions: scalar-first ``(w, x, y, z)``, rotating body to space.
+
+A unit quaternion ``q`` represents the rotation ``R(q)`` with
+``r_space = R(q) r_body = q (0, r_body) q*``. ``q`` and ``-q`` are the same
+rotation; functions that return a canonical representative choose ``w >= 0``.
+
+scipy's :class:`scipy.spatial.transform.Rotation` stores quaternions
+**scalar-last** ``(x, y, z, w)``: convert with :func:`to_scipy` and
+:func:`from_scipy` (or :func:`to_rotation` / :func:`from_rotation`), never by
+passing arrays across directly.
+
+Every function accepts a single quaternion ``(4,)`` or an array ``(..., 4)`` and
+broadcasts its arguments like numpy. The arithmetic runs in the numba kernels of
+:mod:`liebody._kernels.quat` (compiled on first use, cached on disk).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from liebody._kernels import quat as _k
+from liebody._validate import UNIT_TOL, as_float_array, as_unit_quaternion
+
+__all__ = [
+    "IDENTITY",
+    "angle_between",
+    "conjugate",
+    "exp",
+    "from_matrix",
+    "from_rotation",
+    "from_scipy",
+    "inverse",
+    "is_unit",
+    "log",
+    "multiply",
+    "normalize",
+    "random",
+    "rotate",
+    "slerp",
+    "to_matrix",
+    "to_rotation",
+    "to_scipy",
+]
+
+Array = NDArray[np.float64]
+
+#: The identity rotation ``(1, 0, 0, 0)`` (a fresh copy is never needed: it is read-only).
+IDENTITY: Array = np.array([1.0, 0.0, 0.0, 0.0])
+IDENTITY.flags.writeable = False
+
+
+def _rows(*arrays: np.ndarray, dims: tuple[tuple[int, ...], ...]):
+    """Broadcast the leading (batch) axes and flatten them to one row axis."""
+    batch = np.broadcast_shapes(*(a.shape[: a.ndim - len(d)] for a, d in zip(arrays, dims,
+                                                                              strict=True)))
+    flat = [
+        np.ascontiguousarray(np.broadcast_to(a, batch + d)).reshape((-1, *d))
+        for a, d in zip(arrays, dims, strict=True)
+    ]
+    return batch, flat
+
+
+def multiply(p: ArrayLike, q: ArrayLike) -> Array:
+    """Hamilton product ``p * q`` (apply ``q`` first, then ``p``: ``R(pq) = R(p) R(q)``).
+
+    Parameters
+    ----------
+    p, q
+        Quaternions, shape ``(..., 4)``, broadcast against each other. They need not
+        be unit quaternions.
+    """
+    p = as_float_array("p", p, last_dim=4)
+    q = as_float_array("q", q, last_dim=4)
+    batch, (a, b) = _rows(p, q, dims=((4,), (4,)))
+    out = np.empty_like(a)
+    _k.multiply_rows(a, b, out)
+    return out.reshape(batch + (4,))
+
+
+def conjugate(q: ArrayLike) -> Array:
+    """Conjugate ``(w, -x, -y, -z)``; for a unit quaternion this is the inverse rotation."""
+    q = as_float_array("q", q, last_dim=4)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def inverse(q: ArrayLike) -> Array:
+    """Multiplicative inverse ``q* / |q|^2`` (any non-zero quaternion)."""
+    q = as_float_array("q", q, last_dim=4)
+    n2 = np.sum(q * q, axis=-1, keepdims=True)
+    if np.any(n2 == 0.0):
+        raise ValueError("q must be non-zero to have an inverse")
+    return conjugate(q) / n2
+
+
+def rotate(q: ArrayLike, v: ArrayLike) -> Array:
+    """Rotate vectors: ``R(q) v`` (body to space when ``v`` is in body coordinates).
+
+    Parameters
+    ----------
+    q
+        Unit quaternions ``(..., 4)``; ``| |q| - 1 | <= 1e-10`` is required.
+    v
+        Vectors ``(..., 3)``, broadcast against ``q``.
+    """
+    q = as_unit_quaternion("q", q)
+    v = as_float_array("v", v, last_dim=3)
+    batch, (a, b) = _rows(q, v, dims=((4,), (3,)))
+    out = np.empty_like(b)
+    _k.rotate_rows(a, b, out)
+    return out.reshape(batch + (3,))
+
+
+def to_matrix(q: ArrayLike) -> Array:
+    """Rotation matrices ``R(q)`` of shape ``(..., 3, 3)`` (space <- body)."""
+    q = as_unit_quaternion("q", q)
+    batch, (a,) = _rows(q, dims=((4,),))
+    out = np.empty((a.shape[0], 3, 3))
+    _k.to_matrix_rows(a, out)
+    return out.reshape(batch + (3, 3))
+
+
+def from_matrix(matrix: ArrayLike, *, tol: float = 1e-9) -> Array:
+    """Unit quaternions (``w >= 0``) from rotation matrices, Shepperd's stable method.
+
+    The largest of ``|w|, |x|, |y|, |z|`` is taken from a square root of the trace
+    or a diagonal combination and the other three are divided by it, so the result
+    is accurate to round-off for every rotation, including angles near 0 and pi.
+
+    Parameters
+    ----------
+    matrix
+        Proper rotation matrices ``(..., 3, 3)``.
+    tol
+        Accepted deviation ``max |R^T R - 1|`` and ``|det R - 1|``; a matrix that is not a
+        proper rotation within ``tol`` raises ``ValueError``.
+    """
+    m = as_float_array("matrix", matrix)
+    if m.ndim < 2 or m.shape[-2:] != (3, 3):
+        raise ValueError(f"matrix must have shape (..., 3, 3), got {m.shape}")
+    orth = np.abs(np.swapaxes(m, -1, -2) @ m - np.eye(3)).max(axis=(-2, -1), initial=0.0)
+    det = np.linalg.det(m) if m.size else np.zeros(m.shape[:-2])
+    if np.any(orth > tol) or np.any(np.abs(det - 1.0) > tol):
+        raise ValueError(
+            f"matrix must be a proper rotation (R^T R = 1 and det R = +1 within {tol:g}); "
+            f"max |R^T R - 1| = {np.max(orth):.3e}, det = {np.ravel(det)[:3]}..."
+        )
+    batch = m.shape[:-2]
+    flat = np.ascontiguousarray(m.reshape(-1, 3, 3))
+    out = np.empty((flat.shape[0], 4))
+    _k.from_matrix_rows(flat, out)
+    return out.reshape(batch + (4,))
+
+
+def exp(rotvec: ArrayLike) -> Array:
+    """Exponential map: rotation vector (angle ``|r|`` about ``r/|r|``) to unit quaternion.
+
+    ``exp(r) = (cos(|r|/2), sin(|r|/2) r/|r|)``, exact to round-off near ``r = 0``
+    (series for ``sin(a/2)/a``). ``R(exp(r)) = expm(hat(r))``.
+    """
+    r = as_float_array("rotvec", rotvec, last_dim=3)
+    batch = r.shape[:-1]
+    flat = np.ascontiguousarray(r.reshape(-1, 3))
+    out = np.empty((flat.shape[0], 4))
+    _k.exp_rows(flat, out)
+    return out.reshape(batch + (4,))
+
+
+def log(q: ArrayLike) -> Array:
+    """Logarithm: unit quaternion to rotation vector with angle in ``[0, pi]``.
+
+    Inverse of :func:`exp` on angles ``<= pi``; ``log(q) == log(-q)``.
+    """
+    q = as_unit_quaternion("q", q)
+    batch = q.shape[:-1]
+    flat = np.ascontiguousarray(q.reshape(-1, 4))
+    out = np.empty((flat.shape[0], 3))
+    _k.log_rows(flat, out)
+    return out.reshape(batch + (3,))
+
+
+def normalize(q: ArrayLike) -> Array:
+    """``q / |q|``, robust to overflow and underflow; the zero quaternion raises."""
+    q = as_float_array("q", q, last_dim=4)
+    if np.any(np.all(q == 0.0, axis=-1)):
+        raise ValueError("q must be non-zero to be normalised")
+    batch = q.shape[:-1]
+    flat = np.ascontiguousarray(q.reshape(-1, 4))
+    out = np.empty_like(flat)
+    _k.normalize_rows(flat, out)
+    return out.reshape(batch + (4,))
+
+
+def is_unit(q: ArrayLike, tol: float = UNIT_TOL) -> NDArray[np.bool_]:
+    """Boolean mask ``| |q| - 1 | <= tol``."""
+    q = as_float_array("q", q, last_dim=4, allow_nonfinite=True)
+    return np.abs(np.linalg.norm(q, axis=-1) - 1.0) <= tol
+
+
+def slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> Array:
+    """Spherical linear interpolation on the short arc: ``q0 exp(t log(q0* q1))``.
+
+    ``t = 0`` gives ``q0``, ``t = 1`` gives ``q1`` up to sign; the angular speed is
+    constant in ``t``. ``q0``, ``q1`` and ``t`` broadcast (``t`` over the batch axes).
+    """
+    a = as_unit_quaternion("q0", q0)
+    b = as_unit_quaternion("q1", q1)
+    t = as_float_array("t", t)
+    batch, (a, b, tt) = _rows(a, b, t, dims=((4,), (4,), ()))
+    out = np.empty_like(a)
+    _k.slerp_rows(a, b, tt, out)
+    return out.reshape(batch + (4,))
+
+
+def random(size: int | tuple[int, ...] | None = None,
+           rng: np.random.Generator | int | None = None) -> Array:
+    """Uniformly (Haar) distributed random unit quaternions with ``w >= 0``.
+
+    Normalised 4-D standard normal vectors are uniform on the 3-sphere, hence
+    uniform on SO(3).
+
+    Parameters
+    ----------
+    size
+        Batch shape; ``None`` returns a single ``(4,)`` quaternion.
+    rng
+        A ``numpy.random.Generator`` or a seed for ``numpy.random.default_rng``.
+    """
+    if not isinstance(rng, np.random.Generator):
+        rng = np.random.default_rng(rng)
+    shape = () if size is None else ((size,) if np.isscalar(size) else tuple(size))
+    g = rng.standard_normal(shape + (4,))
+    n = np.linalg.norm(g, axis=-1, keepdims=True)
+    q = g / n
+    return np.where(q[..., :1] < 0.0, -q, q)
+
+
+def angle_between(p: ArrayLike, q: ArrayLike) -> Array:
+    """Angle in ``[0, pi]`` of the rotation ``p* q`` (sign-invariant distance on SO(3))."""
+    r = multiply(conjugate(as_unit_quaternion("p", p)), as_unit_quaternion("q", q))
+    vec = np.linalg.norm(r[..., 1:], axis=-1)
+    return 2.0 * np.arctan2(vec, np.abs(r[..., 0]))
+
+
+def to_scipy(q: ArrayLike) -> Array:
+    """Scalar-first ``(w, x, y, z)`` to scipy's scalar-last ``(x, y, z, w)``."""
+    q = as_float_array("q", q, last_dim=4)
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def from_scipy(q_xyzw: ArrayLike) -> Array:
+    """scipy's scalar-last ``(x, y, z, w)`` to scalar-first ``(w, x, y, z)``."""
+    q = as_float_array("q_xyzw", q_xyzw, last_dim=4)
+    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+
+
+def to_rotation(q: ArrayLike):
+    """A :class:`scipy.spatial.transform.Rotation` (scalar-last inside) of ``q``."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(to_scipy(as_unit_quaternion("q", q)))
+
+
+def from_rotation(rotation) -> Array:
+    """Scalar-first unit quaternions of a scipy ``Rotation`` (``w >= 0``)."""
+    q = from_scipy(rotation.as_quat())
+    return np.where(q[..., :1] < 0.0, -q, q)
