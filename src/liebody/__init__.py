@@ -28,13 +28,22 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "euler": ("liebody.euler", None),
     "inertia": ("liebody.inertia", None),
     "RigidBody": ("liebody.body", "RigidBody"),
+    "FreeBody": ("liebody.scenes", "FreeBody"),
+    "integrate": ("liebody._integrate", "integrate"),
+    "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
+    "Trajectory": ("liebody.trajectory", "Trajectory"),
+    "methods": ("liebody.registry", "methods"),
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
 
 if TYPE_CHECKING:  # pragma: no cover
     from liebody import euler, inertia, quaternion  # noqa: F401
+    from liebody._integrate import ConvergenceError, integrate  # noqa: F401
     from liebody.body import RigidBody  # noqa: F401
+    from liebody.registry import methods  # noqa: F401
+    from liebody.scenes import FreeBody  # noqa: F401
+    from liebody.trajectory import Trajectory  # noqa: F401
 
 
 def __getattr__(name: str):

@@ -1,0 +1,164 @@
+"""The one composition driver: runs any method given as a stage table.
+
+A method is data (see :mod:`liebody.registry`): a sequence of *stages*, each a
+one-step map applied for ``coef * h``. The table is four arrays of equal length::
+
+    kinds  int64 (s,)    which map (the STAGE_* constants below)
+    axes   int64 (s,)    body axis for axis rotations (0, 1, 2), else unused
+    coefs  float64 (s,)  fraction of the step h the stage runs for
+    params float64 (s, 3) per-stage constants: rate for AXIS/SPHERE, moments for the rest
+
+Splitting methods are sequences of AXIS/SPHERE stages (exact sub-flows),
+compositions repeat a base table with scaled coefficients, and the other families
+(DMV/RATTLE, the exact flow, the baselines) are single stages of their own kind, so
+one loop runs them all. When the first and last stages are flows of the same
+Hamiltonian (``merge_ends``), the last stage of one step and the first stage of the
+next are applied as one (FSAL), except where the state is saved.
+
+The state lives in seven local scalars inside the loop: nothing is allocated per
+step. The loop stops at the first non-finite state (status 1) or at a DMV
+non-convergence (status 2), so the caller can report how far it got.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from liebody._kernels.exact import exact_flow
+from liebody._kernels.flows import (
+    axis_flow,
+    dmv_step,
+    euler_step,
+    lie_euler_step,
+    rk4_step,
+    rkmk4_step,
+    sphere_flow,
+)
+from liebody._kernels.stages import (
+    STAGE_AXIS,
+    STAGE_DMV,
+    STAGE_EULER,
+    STAGE_EXACT,
+    STAGE_LIE_EULER,
+    STAGE_RK4,
+    STAGE_SPHERE,
+    STATUS_NO_CONVERGENCE,
+    STATUS_NONFINITE,
+    STATUS_OK,
+)
+
+
+@njit(cache=True)
+def apply_stage(kind, axis, p0, p1, p2, tau, w, x, y, z, m1, m2, m3):
+    """Apply one stage for time ``tau``; returns the state and a status flag."""
+    if kind == STAGE_AXIS:
+        r = axis_flow(w, x, y, z, m1, m2, m3, axis, p0, tau)
+        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+    elif kind == STAGE_SPHERE:
+        r = sphere_flow(w, x, y, z, m1, m2, m3, p0, tau)
+        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+    elif kind == STAGE_DMV:
+        r8 = dmv_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
+        st = STATUS_OK if r8[7] >= 0 else STATUS_NO_CONVERGENCE
+        return r8[0], r8[1], r8[2], r8[3], r8[4], r8[5], r8[6], st
+    elif kind == STAGE_EXACT:
+        r = exact_flow(p0, p1, p2, w, x, y, z, m1, m2, m3, tau)
+    elif kind == STAGE_EULER:
+        r = euler_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
+    elif kind == STAGE_RK4:
+        r = rk4_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
+    elif kind == STAGE_LIE_EULER:
+        r = lie_euler_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
+    else:
+        r = rkmk4_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
+    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+
+
+MODE_AXES = 0  # every stage an axis rotation (splitting2 and its compositions)
+MODE_ROTATIONS = 1  # axis and sphere rotations (sr2 and its compositions)
+MODE_GENERAL = 2
+
+
+@njit(cache=True, inline="always")
+def _apply(mode, kinds, axes, params, j, tau, w, x, y, z, m1, m2, m3):
+    """Stage ``j`` for time ``tau``, dispatched on the loop-invariant ``mode``.
+
+    Inlined so that LLVM can specialise the stepping loop per mode: splittings then
+    run without the branches (and register pressure) of the other stage kinds.
+    """
+    if mode == MODE_AXES:
+        r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, 0], tau)
+        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+    if mode == MODE_ROTATIONS:
+        if kinds[j] == STAGE_AXIS:
+            r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, 0], tau)
+        else:
+            r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, 0], tau)
+        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+    return apply_stage(kinds[j], axes[j], params[j, 0], params[j, 1], params[j, 2], tau,
+                       w, x, y, z, m1, m2, m3)
+
+
+@njit(cache=True)
+def run(kinds, axes, coefs, params, h, n_steps, save_every, merge_ends, state, q_out, m_out):
+    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
+
+    The state after every ``save_every``-th step, and after the last step, is written
+    to consecutive rows of ``q_out`` / ``m_out`` (row 0 is the first save *after* the
+    start). ``state`` is updated in place with the last state reached.
+
+    Returns ``(steps_done, n_saved, status)``. On a non-finite state or a DMV
+    failure the loop stops and ``state`` holds the last finite state, the one after
+    ``steps_done`` steps (for methods with merged end stages it may already contain
+    the first stage of the failed step); the caller decides how to report it.
+    """
+    w, x, y, z = state[0], state[1], state[2], state[3]
+    m1, m2, m3 = state[4], state[5], state[6]
+    ns = kinds.shape[0]
+    mode = MODE_AXES
+    for j in range(ns):
+        if kinds[j] == STAGE_SPHERE and mode == MODE_AXES:
+            mode = MODE_ROTATIONS
+        elif kinds[j] != STAGE_AXIS and kinds[j] != STAGE_SPHERE:
+            mode = MODE_GENERAL
+    last = ns - 1
+    pending = False  # first stage of this step already applied (merged into the previous one)
+    n_saved = 0
+    until_save = save_every  # countdown: no integer division in the loop
+    for step in range(n_steps):
+        gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
+        status = STATUS_OK
+        j0 = 1 if pending else 0
+        for j in range(j0, last):
+            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, j, coefs[j] * h,
+                                                    w, x, y, z, m1, m2, m3)
+            if status != STATUS_OK:
+                break
+        until_save -= 1
+        save_now = until_save == 0 or step == n_steps - 1
+        if status == STATUS_OK:
+            if ns > 1 and merge_ends and not save_now:
+                tau = (coefs[last] + coefs[0]) * h
+                pending = True
+            else:
+                tau = coefs[last] * h
+                pending = False
+            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, last, tau,
+                                                    w, x, y, z, m1, m2, m3)
+        if status == STATUS_OK:
+            acc = w + x + y + z + m1 + m2 + m3
+            if not (abs(acc) < 1e308):
+                status = STATUS_NONFINITE
+        if status != STATUS_OK:
+            state[0], state[1], state[2], state[3] = gw, gx, gy, gz
+            state[4], state[5], state[6] = g1, g2, g3
+            return step, n_saved, status
+        if save_now:
+            until_save = save_every
+            q_out[n_saved, 0], q_out[n_saved, 1] = w, x
+            q_out[n_saved, 2], q_out[n_saved, 3] = y, z
+            m_out[n_saved, 0], m_out[n_saved, 1], m_out[n_saved, 2] = m1, m2, m3
+            n_saved += 1
+    state[0], state[1], state[2], state[3] = w, x, y, z
+    state[4], state[5], state[6] = m1, m2, m3
+    return n_steps, n_saved, STATUS_OK

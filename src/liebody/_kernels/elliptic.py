@@ -1,0 +1,380 @@
+"""Elliptic integrals and Jacobi elliptic functions (numba, float64 scalars).
+
+Written for the exact free-rigid-body flow (:mod:`liebody._kernels.exact`), usable on
+their own. Every kernel is ``@njit(cache=True)``, takes and returns float64 scalars
+(or tuples of them) and allocates nothing.
+
+Parameters follow the *parameter* convention ``m = k^2`` and, wherever ``m`` may be
+close to 1, the caller passes the complementary parameter ``mc = 1 - m`` as well,
+computed without cancellation (for the rigid body from Leroy's formulas, see the
+literature notes section 5.1). Nothing here forms ``1 - m`` itself.
+
+Contents
+--------
+carlson_rf(x, y, z)
+    Carlson's ``R_F``, duplication algorithm (Carlson 1995, Numer. Algorithms 10,
+    13-26, algorithm 1): iterate ``lambda = sqrt(x y) + sqrt(y z) + sqrt(z x)``,
+    ``(x, y, z) <- (x, y, z, A) + lambda) / 4`` until ``4^-m Q < |A_m|`` with
+    ``Q = (3 r)^(-1/6) max|A_0 - x_0|``, then the degree-5 series
+    ``A^-1/2 (1 - E2/10 + E3/14 + E2^2/24 - 3 E2 E3/44)``; truncation error
+    ``< r`` with ``r = 2^-53``. Measured relative error against scipy: ~2e-16.
+carlson_rj(x, y, z, p)
+    Carlson's ``R_J`` (``p > 0``), Carlson 1995 algorithm 3:
+    ``R_J = 4^-N A_N^(-3/2) S(E2..E5) + 6 sum_m 4^-m R_C(1, 1 + e_m) / d_m``,
+    ``d_m = (sqrt p + sqrt x)(sqrt p + sqrt y)(sqrt p + sqrt z)``,
+    ``e_m = 4^(-3m) (p - x)(p - y)(p - z) / d_m^2``; ``R_C(1, 1 + e)`` is
+    ``atan(sqrt e)/sqrt e`` (``atanh`` for ``e < 0``, with ``1 + e_m`` formed as
+    ``2 sqrt(p) (p + lambda) / d_m``, which removes the cancellation of the published
+    form when ``p << x, y, z``), by its Taylor series once
+    ``|e| < 1e-3`` (this happens after one or two steps, since ``e_m`` falls by ~64
+    per step), so usually only one or two ``atan`` calls are made.
+jacobi_landen(u, k, kc)
+    ``(sn, cn, dn, j, K)`` of the *reduced* argument ``u - 2 j K`` in ``[-K, K]`` and
+    the complete integral ``K(k)``: descending Landen (Gauss) transformation
+    (DLMF 22.7.1, A&S 16.12) with ``k_{i+1} = (k_i / (1 + k'_i))^2``,
+    ``k'_{i+1} = 2 sqrt(k'_i) / (1 + k'_i)`` (both cancellation-free) until
+    ``k_N < 3e-9``; there ``sn = sin``, ``cn = cos``, ``dn = 1 - k^2 sin^2 / 2``,
+    ``K_N = pi/2 (1 + k_N^2/4)`` (errors ``O(k_N^2) < 1e-17``). Going back up,
+    ``sn = (1 + k1) s1 / (1 + k1 s1^2)``, ``cn = c1 d1 / (1 + k1 s1^2)``,
+    ``dn = (c1^2 + (1 - k1) s1^2) / (1 + k1 s1^2)``: products and quotients of
+    positive numbers, so relative accuracy is kept. Near the quarter period the
+    reflection ``sn(K - x) = cd x``, ``cn(K - x) = k' sd x``, ``dn(K - x) = k' nd x`` is
+    applied at the bottom level, so ``cn`` and ``dn`` are relatively accurate even when
+    they are ``O(k')`` small (separatrix). One ``sqrt`` and one division per level and a
+    single ``sin``/``cos`` pair; ``~4`` levels for ``k^2 = 1/2``, ``~9`` for
+    ``k' = 1e-8``. ``kc`` must be ``> 0`` (``k = 1`` is the hyperbolic case).
+jacobi_sncndn(u, m, mc), jacobi_am(u, m, mc)
+    ``sn, cn, dn`` of the unreduced argument, and the continuous amplitude
+    ``am(u) = j pi + atan2(sn_r, cn_r)`` (``cn_r >= 0`` on the reduced range).
+ellipk(m, mc), ellipf(phi, m, mc), ellippi(n, phi, m, mc), ellippi_complete(n, m, mc)
+    Legendre integrals via Carlson forms, e.g.
+    ``Pi(n; phi | m) = s R_F(c^2, 1 - m s^2, 1) + (n/3) s^3 R_J(c^2, 1 - m s^2, 1, 1 - n s^2)``
+    for ``|phi| <= pi/2`` (``s = sin phi``, ``c = cos phi``) and the quasi-periodicity
+    ``Pi(n; phi + j pi) = 2 j Pi(n | m) + Pi(n; phi)``; ``n < 1``. ``1 - m s^2`` is
+    formed as ``c^2 + mc s^2``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+# Carlson 1995 termination constants for r = 2^-53 (unit round-off of float64):
+# R_F: Q = (3 r)^(-1/6) max|A0 - x|;  R_J: Q = (r/4)^(-1/6) max|A0 - x|.
+_RF_Q = (3.0 * 2.0**-53) ** (-1.0 / 6.0)
+_RJ_Q = (0.25 * 2.0**-53) ** (-1.0 / 6.0)
+_HALF_PI = 0.5 * math.pi
+# bottom of the Landen descent: k_N^2 < 1e-17, so sin/cos are exact to round-off
+_LANDEN_KMIN = 3.0e-9
+_LANDEN_MAXDEPTH = 16
+
+
+@njit(cache=True)
+def carlson_rf(x, y, z):
+    """Carlson's symmetric integral ``R_F(x, y, z)``, ``x, y, z >= 0``, at most one zero.
+
+    ``R_F = (1/2) int_0^inf dt / sqrt((t + x)(t + y)(t + z))``. Duplication algorithm of
+    Carlson (1995) with the degree-5 series; relative error ~1e-16.
+    """
+    a0 = (x + y + z) / 3.0
+    q = _RF_Q * max(abs(a0 - x), abs(a0 - y), abs(a0 - z))
+    a = a0
+    x0 = x
+    y0 = y
+    f = 1.0  # 4^-m
+    while q * f >= abs(a):
+        sx = math.sqrt(x)
+        sy = math.sqrt(y)
+        sz = math.sqrt(z)
+        lam = sx * sy + sx * sz + sy * sz
+        x = 0.25 * (x + lam)
+        y = 0.25 * (y + lam)
+        z = 0.25 * (z + lam)
+        a = 0.25 * (a + lam)
+        f *= 0.25
+        if f < 1e-30:  # only for degenerate input (two zeros): avoid looping forever
+            break
+    xx = (a0 - x0) * f / a
+    yy = (a0 - y0) * f / a
+    zz = -(xx + yy)
+    e2 = xx * yy - zz * zz
+    e3 = xx * yy * zz
+    return (1.0 - 0.1 * e2 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / math.sqrt(a)
+
+
+@njit(cache=True)
+def _rc1(e, y):
+    """``R_C(1, y)`` with ``y = 1 + e > 0``, both supplied (each formed without cancellation).
+
+    ``atan(sqrt e)/sqrt e`` for ``e > 0``; ``atanh(s)/s = log((1 + s)/sqrt y)/s`` with
+    ``s = sqrt(-e)`` for ``e < 0`` (exact also as ``y -> 0``); Taylor series
+    ``sum (-e)^j / (2 j + 1)`` for ``|e| < 1e-3`` (error < 1e-19).
+    """
+    if abs(e) < 1e-3:
+        return 1.0 - e * (1.0 / 3.0 - e * (0.2 - e * (1.0 / 7.0 - e * (1.0 / 9.0 - e / 11.0))))
+    if e > 0.0:
+        s = math.sqrt(e)
+        return math.atan(s) / s
+    s = math.sqrt(-e)
+    return math.log((1.0 + s) / math.sqrt(y)) / s
+
+
+@njit(cache=True)
+def carlson_rj(x, y, z, p):
+    """Carlson's symmetric integral ``R_J(x, y, z, p)``, ``x, y, z >= 0`` (at most one 0), ``p > 0``.
+
+    ``R_J = (3/2) int_0^inf dt / ((t + p) sqrt((t + x)(t + y)(t + z)))``. Carlson (1995)
+    algorithm with ``R_C(1, 1 + e_m)`` in closed form; relative error ~1e-16 (measured
+    against ``scipy.special.elliprj``).
+    """
+    a0 = (x + y + z + 2.0 * p) / 5.0
+    delta = (p - x) * (p - y) * (p - z)
+    q = _RJ_Q * max(abs(a0 - x), abs(a0 - y), abs(a0 - z), abs(a0 - p))
+    a = a0
+    x0 = x
+    y0 = y
+    z0 = z
+    f = 1.0  # 4^-m
+    f3 = 1.0  # 4^-3m
+    acc = 0.0
+    while q * f >= abs(a):
+        sx = math.sqrt(x)
+        sy = math.sqrt(y)
+        sz = math.sqrt(z)
+        sp = math.sqrt(p)
+        lam = sx * sy + sx * sz + sy * sz
+        d = (sp + sx) * (sp + sy) * (sp + sz)
+        # e_m = 4^-3m delta / d^2 and 1 + e_m = 2 sqrt(p) (p + lam) / d (from
+        # d^2 + 4^-3m delta = 2 sqrt(p) (p + lam) d): no cancellation when p << x, y, z
+        e = f3 * delta / (d * d)
+        acc += f * _rc1(e, 2.0 * sp * (p + lam) / d) / d
+        x = 0.25 * (x + lam)
+        y = 0.25 * (y + lam)
+        z = 0.25 * (z + lam)
+        p = 0.25 * (p + lam)
+        a = 0.25 * (a + lam)
+        f *= 0.25
+        f3 *= 0.015625
+        if f < 1e-30:
+            break
+    xx = (a0 - x0) * f / a
+    yy = (a0 - y0) * f / a
+    zz = (a0 - z0) * f / a
+    pp = -0.5 * (xx + yy + zz)
+    p2 = pp * pp
+    xyz = xx * yy * zz
+    e2 = xx * yy + xx * zz + yy * zz - 3.0 * p2
+    e3 = xyz + 2.0 * e2 * pp + 4.0 * p2 * pp
+    e4 = (2.0 * xyz + e2 * pp + 3.0 * p2 * pp) * pp
+    e5 = xyz * p2
+    ser = (1.0 - 3.0 * e2 / 14.0 + e3 / 6.0 + 9.0 * e2 * e2 / 88.0 - 3.0 * e4 / 22.0
+           - 9.0 * e2 * e3 / 52.0 + 3.0 * e5 / 26.0)
+    return f * ser / (a * math.sqrt(a)) + 6.0 * acc
+
+
+# --------------------------------------------------------------------------------------
+# Jacobi elliptic functions
+# --------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _landen_step(k, kc):
+    """One descending Landen step ``(k, k') -> ((k/(1+k'))^2, 2 sqrt(k')/(1+k'))``.
+
+    Identity once the bottom (``k < 3e-9``) is reached, so that a fixed number of calls
+    can be chained without branches in the caller.
+    """
+    if k < _LANDEN_KMIN:
+        return k, kc
+    t = k / (1.0 + kc)
+    return t * t, 2.0 * math.sqrt(kc) / (1.0 + kc)
+
+
+@njit(cache=True)
+def landen_chain(k, kc):
+    """Descending Landen moduli ``k_0 = k, k_1, ..., k_N`` (``N <= 16``).
+
+    Returns ``(N, ks, kcs)`` with ``ks[i] = k_{i+1}`` and ``kcs[i] = k'_i`` for
+    ``i < 16`` (16-tuples; entries past ``N`` repeat the bottom values). ``N`` is the
+    number of steps until ``k_N < 3e-9``; ``N <= 14`` for every ``k' >= 5e-324``.
+    Costs one ``sqrt`` per step; a per-modulus constant, so the exact flow computes it
+    once per trajectory.
+    """
+    c0 = kc
+    k1, c1 = _landen_step(k, c0)
+    k2, c2 = _landen_step(k1, c1)
+    k3, c3 = _landen_step(k2, c2)
+    k4, c4 = _landen_step(k3, c3)
+    k5, c5 = _landen_step(k4, c4)
+    k6, c6 = _landen_step(k5, c5)
+    k7, c7 = _landen_step(k6, c6)
+    k8, c8 = _landen_step(k7, c7)
+    k9, c9 = _landen_step(k8, c8)
+    k10, c10 = _landen_step(k9, c9)
+    k11, c11 = _landen_step(k10, c10)
+    k12, c12 = _landen_step(k11, c11)
+    k13, c13 = _landen_step(k12, c12)
+    k14, c14 = _landen_step(k13, c13)
+    k15, c15 = _landen_step(k14, c14)
+    k16, _ = _landen_step(k15, c15)
+    ks = (k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16)
+    kcs = (c0, c1, c2, c3, c4, c5, c6, c7, c8, c9, c10, c11, c12, c13, c14, c15)
+    nlev = 0
+    kk = k
+    while kk >= _LANDEN_KMIN and nlev < _LANDEN_MAXDEPTH:
+        kk = ks[nlev]
+        nlev += 1
+    return nlev, ks, kcs
+
+
+@njit(cache=True)
+def landen_eval(u, k, kc, nlev, ks, kcs):
+    """Reduced ``(sn, cn, dn, j, K)`` from a precomputed :func:`landen_chain`.
+
+    ``ks``, ``kcs`` may be tuples or float64 arrays. See :func:`jacobi_landen`.
+    """
+    kb = ks[nlev - 1] if nlev > 0 else k
+    kcb = kcs[nlev] if nlev < _LANDEN_MAXDEPTH else math.sqrt(1.0 - kb * kb)
+    k2 = kb * kb
+    kqb = _HALF_PI * (1.0 + 0.25 * k2)  # K(k_N)
+    kq = kqb
+    for i in range(nlev):
+        kq *= 1.0 + ks[i]  # K(k) = (1 + k_1) ... (1 + k_N) K(k_N)
+    # reduce at the top level (error ~ eps |u|), then descend z_{i+1} = z_i / (1 + k_{i+1})
+    j = math.floor(u / (2.0 * kq) + 0.5)
+    z = u - 2.0 * j * kq
+    for i in range(nlev):
+        z = z / (1.0 + ks[i])
+    ar = abs(z)
+    if ar <= 0.5 * kqb:
+        s = math.sin(z)
+        c = math.cos(z)
+        d = 1.0 - 0.5 * k2 * s * s
+    else:
+        # reflection about the quarter period: sn(K - x) = cd x, cn(K - x) = k' sd x,
+        # dn(K - x) = k' nd x; keeps cn, dn relatively accurate where they are small.
+        xr = kqb - ar
+        sx = math.sin(xr)
+        cx = math.cos(xr)
+        dx = 1.0 - 0.5 * k2 * sx * sx
+        s = cx / dx
+        if z < 0.0:
+            s = -s
+        c = kcb * sx / dx
+        d = kcb / dx
+    # ascend (Gauss transformation, DLMF 22.7.1 with dn rewritten cancellation-free)
+    for i in range(nlev - 1, -1, -1):
+        k1 = ks[i]
+        kcp = kcs[i]
+        ss = s * s
+        inv = 1.0 / (1.0 + k1 * ss)
+        one_m_k1 = 2.0 * kcp / (1.0 + kcp)
+        s, c, d = (1.0 + k1) * s * inv, c * d * inv, (c * c + one_m_k1 * ss) * inv
+    return s, c, d, j, kq
+
+
+@njit(cache=True)
+def jacobi_landen(u, k, kc):
+    """Reduced Jacobi functions and the quarter period.
+
+    Parameters
+    ----------
+    u : float
+        Argument.
+    k, kc : float
+        Modulus and complementary modulus, ``k^2 + kc^2 = 1``, ``kc > 0``.
+
+    Returns
+    -------
+    sn, cn, dn, j, K : float
+        ``K = K(k)``; ``j = round(u / 2K)`` (as a float) and ``sn, cn, dn`` are evaluated
+        at ``u_r = u - 2 j K`` in ``[-K, K]`` (so ``cn >= 0``). Then
+        ``sn(u) = (-1)^j sn(u_r)``, ``cn(u) = (-1)^j cn(u_r)``, ``dn(u) = dn(u_r)``.
+        Absolute error ~1e-16 plus the argument error ``|u| eps``; ``cn`` and ``dn`` are
+        also relatively accurate near ``u_r = +-K``.
+    """
+    nlev, ks, kcs = landen_chain(k, kc)
+    return landen_eval(u, k, kc, nlev, ks, kcs)
+
+
+@njit(cache=True)
+def jacobi_sncndn(u, m, mc):
+    """``(sn(u|m), cn(u|m), dn(u|m))`` for ``0 <= m <= 1``, ``mc = 1 - m``.
+
+    ``mc == 0`` gives the hyperbolic limit ``(tanh u, sech u, sech u)``.
+    """
+    if mc <= 0.0:
+        e = math.exp(-abs(u))
+        sech = 2.0 * e / (1.0 + e * e)
+        return math.tanh(u), sech, sech
+    s, c, d, j, _ = jacobi_landen(u, math.sqrt(m), math.sqrt(mc))
+    if j % 2.0 != 0.0:
+        return -s, -c, d
+    return s, c, d
+
+
+@njit(cache=True)
+def jacobi_am(u, m, mc):
+    """Continuous Jacobi amplitude ``am(u|m)`` (``am(u + 2K) = am(u) + pi``)."""
+    if mc <= 0.0:
+        return math.atan(math.sinh(u))  # Gudermannian
+    s, c, _, j, _ = jacobi_landen(u, math.sqrt(m), math.sqrt(mc))
+    return j * math.pi + math.atan2(s, c)
+
+
+# --------------------------------------------------------------------------------------
+# Legendre integrals
+# --------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def ellipk(m, mc):
+    """Complete integral of the first kind ``K(m) = R_F(0, mc, 1)`` (``mc = 1 - m > 0``)."""
+    return carlson_rf(0.0, mc, 1.0)
+
+
+@njit(cache=True)
+def ellippi_complete(n, m, mc):
+    """Complete integral of the third kind ``Pi(n | m) = R_F(0, mc, 1) + n/3 R_J(0, mc, 1, 1 - n)``.
+
+    ``n < 1``, ``mc = 1 - m > 0``.
+    """
+    return carlson_rf(0.0, mc, 1.0) + n / 3.0 * carlson_rj(0.0, mc, 1.0, 1.0 - n)
+
+
+@njit(cache=True)
+def _reduce_phi(phi):
+    """``phi = j pi + r`` with ``|r| <= pi/2``; returns ``(j, sin r, cos r)``."""
+    j = math.floor(phi / math.pi + 0.5)
+    r = phi - j * math.pi
+    return j, math.sin(r), math.cos(r)
+
+
+@njit(cache=True)
+def ellipf(phi, m, mc):
+    """Incomplete integral of the first kind ``F(phi | m)`` for any real ``phi``."""
+    j, s, c = _reduce_phi(phi)
+    y = c * c + mc * s * s
+    res = s * carlson_rf(c * c, y, 1.0)
+    if j != 0.0:
+        res += 2.0 * j * carlson_rf(0.0, mc, 1.0)
+    return res
+
+
+@njit(cache=True)
+def ellippi(n, phi, m, mc):
+    """Incomplete integral of the third kind ``Pi(n; phi | m)``, any real ``phi``, ``n < 1``.
+
+    ``Pi = int_0^phi dt / ((1 - n sin^2 t) sqrt(1 - m sin^2 t))`` (A&S 17.2.14 convention,
+    as ``scipy``'s Carlson combination and Mathematica's ``EllipticPi[n, phi, m]``).
+    """
+    j, s, c = _reduce_phi(phi)
+    c2 = c * c
+    y = c2 + mc * s * s
+    res = s * carlson_rf(c2, y, 1.0)
+    if s != 0.0:
+        res += n / 3.0 * s * s * s * carlson_rj(c2, y, 1.0, 1.0 - n * s * s)
+    if j != 0.0:
+        res += 2.0 * j * ellippi_complete(n, m, mc)
+    return res

@@ -1,0 +1,262 @@
+"""One-step maps of the free rigid body (numba, float64 scalars, no allocation).
+
+State: orientation ``q = (w, x, y, z)`` (body -> space) and body angular momentum
+``m = (m1, m2, m3)``; ``omega = m / I``. Equations: ``m' = m x omega``,
+``q' = q (0, omega) / 2``. Every map takes and returns the state as scalars, so the
+driver keeps it in registers.
+
+Literature: ``../shared/theory/integrators-literature.md`` sections 1 (axis
+sub-flows), 1.3 (symmetric-body + rotation splitting), 3 (DMV = RATTLE on SO(3)),
+7 (Lie-group baselines), 9 (failure modes of explicit Euler and RK4).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from liebody._kernels.quat import qaxis_rotation, qexp, qmul, qrotate_inv
+
+#: DMV iteration limits
+DMV_MAX_FIXED_POINT = 60
+DMV_MAX_NEWTON = 30
+
+
+@njit(cache=True)
+def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
+    """Exact flow of ``H_k = rate * m_k^2 / 2`` for time ``tau`` (``k = axis``).
+
+    ``m_k`` is constant; ``m`` turns by ``-theta`` and ``q`` by ``+theta`` about body axis
+    ``e_k``, ``theta = tau * rate * m_k``. With ``rate = 1/I_k`` this is the exact
+    sub-flow of the kinetic-energy term ``T_k`` (literature section 1.1). Keeps
+    ``|m|``, spatial ``L = R(q) m`` exactly and ``|q|`` to round-off. One sin, one cos.
+    """
+    if axis == 0:
+        mk = m1
+    elif axis == 1:
+        mk = m2
+    else:
+        mk = m3
+    half = 0.5 * tau * rate * mk
+    s2 = math.sin(half)
+    c2 = math.cos(half)
+    c = 1.0 - 2.0 * s2 * s2
+    s = 2.0 * s2 * c2
+    if axis == 0:
+        m2, m3 = c * m2 + s * m3, c * m3 - s * m2
+    elif axis == 1:
+        m3, m1 = c * m3 + s * m1, c * m1 - s * m3
+    else:
+        m1, m2 = c * m1 + s * m2, c * m2 - s * m1
+    w, x, y, z = qaxis_rotation(w, x, y, z, axis, s2, c2)
+    return w, x, y, z, m1, m2, m3
+
+
+@njit(cache=True)
+def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
+    """Exact flow of ``rate * |m|^2 / 2``: ``m`` fixed, ``q <- q exp(tau rate m)``.
+
+    Together with an :func:`axis_flow` about the symmetry axis (they commute) this
+    is the exact flow of a symmetric body (literature section 1.3, "SR2").
+    """
+    a = tau * rate
+    ew, ex, ey, ez = qexp(a * m1, a * m2, a * m3)
+    w, x, y, z = qmul(w, x, y, z, ew, ex, ey, ez)
+    return w, x, y, z, m1, m2, m3
+
+
+@njit(cache=True)
+def _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3):
+    """Residual of ``c = (1 + |c|^2) a + F .* (c_j c_k)`` (the DMV equation divided by I)."""
+    alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
+    return (c1 - alpha * a1 - f1 * c2 * c3,
+            c2 - alpha * a2 - f2 * c3 * c1,
+            c3 - alpha * a3 - f3 * c1 * c2)
+
+
+@njit(cache=True)
+def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+    """Discrete Moser–Veselov step (= RATTLE on SO(3)) in quaternion form.
+
+    Solves ``I c + c x (I c) = (h/2)(1 + |c|^2) m`` for ``c`` (literature section 3.3),
+    by Gauss–Seidel fixed-point iteration to round-off with a Newton fallback, then
+    ``q <- q u`` and ``m <- R(u)^T m`` with ``u = (1, c) / sqrt(1 + |c|^2)`` (in exact
+    arithmetic the same as the literature's
+    ``m <- m + 4/(h alpha) ((I2-I3) c2 c3, (I3-I1) c3 c1, (I1-I2) c1 c2)``, but applied as
+    a rotation it keeps ``|m|`` and ``R(q) m`` to round-off without a systematic drift).
+
+    Order 2, symplectic, time-reversible; for the free body it conserves energy,
+    ``|m|`` and spatial ``L`` exactly (up to round-off).
+
+    Returns the new state and the iteration count; a negative count means the
+    implicit equation did not converge (the state is then returned unchanged).
+    """
+    if h == 0.0:
+        return w, x, y, z, m1, m2, m3, 0
+    hh = 0.5 * h
+    a1, a2, a3 = hh * m1 / I1, hh * m2 / I2, hh * m3 / I3
+    f1, f2, f3 = (I2 - I3) / I1, (I3 - I1) / I2, (I1 - I2) / I3
+    c1 = a1 + f1 * a2 * a3
+    c2 = a2 + f2 * c1 * a3
+    c3 = a3 + f3 * c1 * c2
+    scale = abs(a1) + abs(a2) + abs(a3) + 1e-300
+    it = 0
+    converged = False
+    while it < DMV_MAX_FIXED_POINT:
+        it += 1
+        alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
+        n1 = alpha * a1 + f1 * c2 * c3
+        n2 = alpha * a2 + f2 * n1 * c3
+        n3 = alpha * a3 + f3 * n1 * n2
+        d = abs(n1 - c1) + abs(n2 - c2) + abs(n3 - c3)
+        c1, c2, c3 = n1, n2, n3
+        if not (d < 1e300):  # diverging (inf/NaN): go to Newton from a fresh start
+            break
+        if d <= 4e-16 * (abs(c1) + abs(c2) + abs(c3)) + 1e-300 * scale:
+            converged = True
+            break
+    if not converged:
+        # Newton on G(c) = c - alpha a - F .* (c_j c_k) from the explicit guess
+        c1, c2, c3 = a1, a2, a3
+        for _ in range(DMV_MAX_NEWTON):
+            it += 1
+            g1, g2, g3 = _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3)
+            # Jacobian dG/dc
+            j11 = 1.0 - 2.0 * c1 * a1
+            j12 = -2.0 * c2 * a1 - f1 * c3
+            j13 = -2.0 * c3 * a1 - f1 * c2
+            j21 = -2.0 * c1 * a2 - f2 * c3
+            j22 = 1.0 - 2.0 * c2 * a2
+            j23 = -2.0 * c3 * a2 - f2 * c1
+            j31 = -2.0 * c1 * a3 - f3 * c2
+            j32 = -2.0 * c2 * a3 - f3 * c1
+            j33 = 1.0 - 2.0 * c3 * a3
+            det = (j11 * (j22 * j33 - j23 * j32) - j12 * (j21 * j33 - j23 * j31)
+                   + j13 * (j21 * j32 - j22 * j31))
+            if det == 0.0 or not (abs(det) < 1e300):
+                break
+            d1 = (g1 * (j22 * j33 - j23 * j32) - j12 * (g2 * j33 - j23 * g3)
+                  + j13 * (g2 * j32 - j22 * g3)) / det
+            d2 = (j11 * (g2 * j33 - j23 * g3) - g1 * (j21 * j33 - j23 * j31)
+                  + j13 * (j21 * g3 - g2 * j31)) / det
+            d3 = (j11 * (j22 * g3 - g2 * j32) - j12 * (j21 * g3 - g2 * j31)
+                  + g1 * (j21 * j32 - j22 * j31)) / det
+            c1, c2, c3 = c1 - d1, c2 - d2, c3 - d3
+            if abs(d1) + abs(d2) + abs(d3) <= 4e-16 * (abs(c1) + abs(c2) + abs(c3)) + 1e-300:
+                converged = True
+                break
+    if not converged:
+        return w, x, y, z, m1, m2, m3, -it
+    alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
+    # the increment (1, c)/sqrt(alpha) applied to q, and its inverse rotation to m, so that
+    # R(q) m is updated as one rotation and its inverse (spatial L kept to round-off)
+    n = math.sqrt(alpha)
+    uw, ux, uy, uz = 1.0 / n, c1 / n, c2 / n, c3 / n
+    w, x, y, z = qmul(w, x, y, z, uw, ux, uy, uz)
+    m1, m2, m3 = qrotate_inv(uw, ux, uy, uz, m1, m2, m3)
+    return w, x, y, z, m1, m2, m3, it
+
+
+@njit(cache=True)
+def _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3):
+    """Right-hand side ``(q', m')`` of the free rigid body in R^7 (no constraint)."""
+    o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
+    dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
+    return (dw, dx, dy, dz,
+            m2 * o3 - m3 * o2, m3 * o1 - m1 * o3, m1 * o2 - m2 * o1)
+
+
+@njit(cache=True)
+def euler_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+    """Explicit Euler on ``(q, m)`` in R^7, no renormalisation (baseline: fails).
+
+    Order 1. Energy and ``|m|`` grow every step; ``|q|`` grows like
+    ``sqrt(1 + (h |omega| / 2)^2)`` per step (literature section 9).
+    """
+    k = _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3)
+    return (w + h * k[0], x + h * k[1], y + h * k[2], z + h * k[3],
+            m1 + h * k[4], m2 + h * k[5], m3 + h * k[6])
+
+
+@njit(cache=True)
+def rk4_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+    """Classical Runge–Kutta 4 on ``(q, m)`` in R^7, no renormalisation (baseline).
+
+    Order 4; not symplectic, not symmetric: energy and ``|m|`` drift linearly,
+    ``|q|`` decays by about ``(h|omega|/2)^6 / 144`` per step (literature section 9).
+    """
+    k1 = _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3)
+    b = 0.5 * h
+    k2 = _rhs(w + b * k1[0], x + b * k1[1], y + b * k1[2], z + b * k1[3],
+              m1 + b * k1[4], m2 + b * k1[5], m3 + b * k1[6], I1, I2, I3)
+    k3 = _rhs(w + b * k2[0], x + b * k2[1], y + b * k2[2], z + b * k2[3],
+              m1 + b * k2[4], m2 + b * k2[5], m3 + b * k2[6], I1, I2, I3)
+    k4 = _rhs(w + h * k3[0], x + h * k3[1], y + h * k3[2], z + h * k3[3],
+              m1 + h * k3[4], m2 + h * k3[5], m3 + h * k3[6], I1, I2, I3)
+    s = h / 6.0
+    return (w + s * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
+            x + s * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
+            y + s * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
+            z + s * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
+            m1 + s * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4]),
+            m2 + s * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5]),
+            m3 + s * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6]))
+
+
+@njit(cache=True)
+def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
+    """Apply the group increment ``sigma``: ``q <- q exp(sigma)``, ``m <- exp(-hat sigma) m``."""
+    ew, ex, ey, ez = qexp(s1, s2, s3)
+    n1, n2, n3 = qrotate_inv(ew, ex, ey, ez, m1, m2, m3)
+    w, x, y, z = qmul(w, x, y, z, ew, ex, ey, ez)
+    return w, x, y, z, n1, n2, n3
+
+
+@njit(cache=True)
+def lie_euler_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+    """Lie–Euler: ``sigma = h omega(m)``, then :func:`_coadjoint` (literature section 7).
+
+    Order 1; stays on SO(3) and keeps ``|m|`` exactly, but is neither symplectic nor
+    symmetric: it drives ``m`` towards the axis of maximum energy.
+    """
+    return _coadjoint(w, x, y, z, m1, m2, m3, h * m1 / I1, h * m2 / I2, h * m3 / I3)
+
+
+@njit(cache=True)
+def _dexpinv(u1, u2, u3, v1, v2, v3):
+    """``dexp^{-1}_{-u}(v) = v + u x v / 2 + u x (u x v) / 12`` (truncated, enough for order 4).
+
+    For the body (right) action ``Q = Q0 exp(hat u)`` of ``Q' = Q hat(omega)``.
+    """
+    c1 = u2 * v3 - u3 * v2
+    c2 = u3 * v1 - u1 * v3
+    c3 = u1 * v2 - u2 * v1
+    d1 = u2 * c3 - u3 * c2
+    d2 = u3 * c1 - u1 * c3
+    d3 = u1 * c2 - u2 * c1
+    return (v1 + 0.5 * c1 + d1 / 12.0, v2 + 0.5 * c2 + d2 / 12.0, v3 + 0.5 * c3 + d3 / 12.0)
+
+
+@njit(cache=True)
+def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, h):
+    """``dexpinv(u, h omega(exp(-hat u) m))``: one RKMK stage derivative."""
+    ew, ex, ey, ez = qexp(u1, u2, u3)
+    n1, n2, n3 = qrotate_inv(ew, ex, ey, ez, m1, m2, m3)
+    return _dexpinv(u1, u2, u3, h * n1 / I1, h * n2 / I2, h * n3 / I3)
+
+
+@njit(cache=True)
+def rkmk4_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+    """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (literature section 7).
+
+    Order 4; stays on SO(3) and keeps ``|m|`` exactly; energy drifts linearly.
+    """
+    k1 = (h * m1 / I1, h * m2 / I2, h * m3 / I3)
+    k2 = _rkmk_stage(m1, m2, m3, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2], I1, I2, I3, h)
+    k3 = _rkmk_stage(m1, m2, m3, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2], I1, I2, I3, h)
+    k4 = _rkmk_stage(m1, m2, m3, k3[0], k3[1], k3[2], I1, I2, I3, h)
+    s1 = (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]) / 6.0
+    s2 = (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]) / 6.0
+    s3 = (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]) / 6.0
+    return _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3)

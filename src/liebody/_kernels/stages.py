@@ -1,0 +1,14 @@
+"""Stage kinds and driver status codes (plain integers, importable without numba)."""
+
+STAGE_AXIS = 0  # exact flow of rate * m_k^2 / 2 about body axis k (params[0] = rate)
+STAGE_SPHERE = 1  # exact flow of rate * |m|^2 / 2 (params[0] = rate)
+STAGE_DMV = 2  # discrete Moser-Veselov / RATTLE step (params = moments)
+STAGE_EXACT = 3  # exact free-body flow (params = moments)
+STAGE_EULER = 4  # explicit Euler on (q, m) (params = moments)
+STAGE_RK4 = 5  # classical RK4 on (q, m) (params = moments)
+STAGE_LIE_EULER = 6  # Lie-Euler (params = moments)
+STAGE_RKMK4 = 7  # Runge-Kutta-Munthe-Kaas 4 (params = moments)
+
+STATUS_OK = 0
+STATUS_NONFINITE = 1
+STATUS_NO_CONVERGENCE = 2

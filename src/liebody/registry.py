@@ -1,0 +1,434 @@
+"""The method registry: methods are data.
+
+Each method is a :class:`Method` record (name, family, order, geometric
+properties, scenes it supports, cost per step) plus a recipe that turns it into a
+*stage table* for a given body, initial state and step (see
+:mod:`liebody._kernels.driver`). Compositions are a coefficient table applied to a
+second-order base by one routine, :func:`compose`. :func:`methods` builds the public
+table from the same records, so documentation and tests read one truth.
+
+Literature: ``../shared/theory/integrators-literature.md`` sections 1–7, 11.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from liebody import _modified
+from liebody._kernels import stages as _drv
+
+__all__ = ["COMPOSITIONS", "Method", "MethodTable", "Plan", "compose", "get", "methods", "plan"]
+
+# ----------------------------------------------------------------------------------------
+# composition coefficients (palindromic, centre included once): literature section 6
+# ----------------------------------------------------------------------------------------
+
+
+def _palindrome(half: tuple[float, ...], centre: float) -> tuple[float, ...]:
+    return (*half, centre, *reversed(half))
+
+
+_SUZUKI_G = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
+
+#: name -> palindromic coefficients ``gamma_i`` of ``S(gamma_s h) ... S(gamma_1 h)``
+COMPOSITIONS: dict[str, tuple[float, ...]] = {
+    "strang": (1.0,),
+    # Suzuki 1990, 5 stages, order 4
+    "suzuki4": _palindrome((_SUZUKI_G, _SUZUKI_G), 1.0 - 4.0 * _SUZUKI_G),
+    # Kahan & Li 1997 s9odr6, order 6
+    "kahanli6": _palindrome(
+        (0.39216144400731413928, 0.33259913678935943860, -0.70624617255763935981,
+         0.08221359629355080023),
+        0.79854399093482996340),
+    # Kahan & Li 1997 s17odr8, order 8
+    "kahanli8": _palindrome(
+        (0.13020248308889008088, 0.56116298177510838456, -0.38947496264484728641,
+         0.15884190655515560090, -0.39590389413323757734, 0.18453964097831570709,
+         0.25837438768632204729, 0.29501172360931029887),
+        -0.60550853383003451170),
+}
+
+
+# ----------------------------------------------------------------------------------------
+# records
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered integrator and its declared properties.
+
+    Attributes
+    ----------
+    name
+        Public name passed as ``integrate(..., method=name)``.
+    family
+        ``"splitting"``, ``"composition"``, ``"rattle"``, ``"exact"`` or ``"baseline"``.
+    order
+        Classical order (``math.inf`` for the exact flow).
+    symplectic, reversible
+        Symplectic (Lie–Poisson in ``L``) and time-reversible (symmetric).
+    keeps_casimir
+        Keeps ``|L|`` (and, for every method that acts by rotations, spatial ``L``) to
+        round-off.
+    keeps_energy
+        Keeps the free-body energy to round-off.
+    scenes
+        Scene classes the method can integrate.
+    cost
+        Cost of one step in words (measured figures: ``bench/step_cost.py``).
+    coefficients
+        Composition coefficients applied to the base (``(1.0,)`` for a base method).
+    """
+
+    name: str
+    family: str
+    order: float
+    symplectic: bool
+    reversible: bool
+    keeps_casimir: bool
+    keeps_energy: bool
+    scenes: tuple[str, ...]
+    cost: str
+    coefficients: tuple[float, ...] = (1.0,)
+    description: str = ""
+
+    def supports(self, scene) -> bool:
+        return type(scene).__name__ in self.scenes
+
+
+@dataclass
+class Plan:
+    """A method made concrete for one body, initial state and step: a stage table."""
+
+    kinds: np.ndarray
+    axes: np.ndarray
+    coefs: np.ndarray
+    params: np.ndarray
+    merge_ends: bool
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_stages(self) -> int:
+        return int(self.kinds.shape[0])
+
+
+_FREE = ("FreeBody",)
+
+_REGISTRY: dict[str, Method] = {}
+
+
+def _register(method: Method) -> Method:
+    _REGISTRY[method.name] = method
+    return method
+
+
+_register(Method(
+    "exact", "exact", math.inf, True, True, True, True, _FREE,
+    "one elliptic-function evaluation per output sample (no time stepping)",
+    description="Exact free-body flow (Jacobi elliptic functions, Carlson R_F/R_J; "
+                "trig functions only for symmetric bodies), evaluated at the output times."))
+_register(Method(
+    "splitting2", "splitting", 2, True, True, True, False, _FREE,
+    "4 axis rotations (4 sin/cos pairs), end rotations merged",
+    description="Symmetric 5-rotation splitting of T into exact axis sub-flows; the axis "
+                "ordering is chosen per orbit from the leading modified-Hamiltonian term."))
+_register(Method(
+    "sr2", "splitting", 2, True, True, True, False, _FREE,
+    "1 quaternion exponential + 2 axis rotations",
+    description="Symmetric-body + one-rotation splitting (Touma–Wisdom, Hairer–Vilmart SR2): "
+                "exact for symmetric bodies, far more accurate for nearly symmetric ones."))
+_register(Method(
+    "rattle", "rattle", 2, True, True, True, True, _FREE,
+    "1 implicit 3x3 solve (about 5-8 fixed-point iterations, no trig)",
+    description="RATTLE on SO(3) in its discrete Moser–Veselov quaternion form; the implicit "
+                "equation is solved to round-off (fixed point, Newton fallback)."))
+for _name, _comp, _order in (("splitting4", "suzuki4", 4), ("splitting6", "kahanli6", 6),
+                             ("splitting8", "kahanli8", 8)):
+    _register(Method(
+        _name, "composition", _order, True, True, True, False, _FREE,
+        f"{len(COMPOSITIONS[_comp])} base steps ({_comp})",
+        coefficients=COMPOSITIONS[_comp],
+        description=f"{_comp} composition of the best second-order splitting for the orbit."))
+_register(Method(
+    "dmv4", "rattle", 4, False, True, True, True, _FREE,
+    "1 DMV step with modified moments (same cost as rattle)",
+    description="Hairer–Vilmart preprocessed DMV of order 4 (modified moments from the "
+                "invariants); Poisson in L but not symplectic for (q, L)."))
+_register(Method(
+    "dmv6", "rattle", 6, False, True, True, True, _FREE,
+    "1 DMV step with modified moments (same cost as rattle)",
+    description="Hairer–Vilmart preprocessed DMV of order 6."))
+_register(Method(
+    "euler", "baseline", 1, False, False, False, False, _FREE, "1 right-hand side",
+    description="Explicit Euler on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
+                "grow every step. Kept to show failure."))
+_register(Method(
+    "rk4", "baseline", 4, False, False, False, False, _FREE, "4 right-hand sides",
+    description="Classical RK4 on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
+                "drift. Kept to show failure."))
+_register(Method(
+    "lie_euler", "baseline", 1, False, False, True, False, _FREE,
+    "1 quaternion exponential",
+    description="Lie–Euler (coadjoint form): stays on SO(3), keeps |L|, drives L to the "
+                "maximum-energy axis."))
+_register(Method(
+    "rkmk4", "baseline", 4, False, False, True, False, _FREE,
+    "4 quaternion exponentials",
+    description="Runge–Kutta–Munthe-Kaas with the RK4 tableau: on SO(3), keeps |L|, energy "
+                "drifts linearly."))
+
+
+class MethodTable(tuple):
+    """The registry as an immutable sequence of :class:`Method`, printed as a table."""
+
+    _cols = ("name", "family", "order", "symplectic", "reversible", "keeps_casimir",
+             "keeps_energy", "scenes", "cost")
+
+    def names(self) -> list[str]:
+        return [m.name for m in self]
+
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            for m in self:
+                if m.name == key:
+                    return m
+            raise KeyError(key)
+        return super().__getitem__(key)
+
+    def rows(self) -> Iterator[tuple[str, ...]]:
+        for m in self:
+            vals = []
+            for c in self._cols:
+                v = getattr(m, c)
+                if c == "order":
+                    v = "exact" if math.isinf(v) else str(int(v))
+                elif isinstance(v, bool):
+                    v = "yes" if v else "no"
+                elif isinstance(v, tuple):
+                    v = ", ".join(v)
+                vals.append(str(v))
+            yield tuple(vals)
+
+    def __str__(self) -> str:
+        rows = [self._cols, *self.rows()]
+        widths = [max(len(r[i]) for r in rows) for i in range(len(self._cols))]
+        lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+                 for r in rows]
+        lines.insert(1, "  ".join("-" * w for w in widths))
+        return "\n".join(lines)
+
+    def _repr_pretty_(self, p, cycle):  # pragma: no cover - IPython display
+        p.text(str(self))
+
+
+def methods() -> MethodTable:
+    """All registered methods with their declared properties (a printable table)."""
+    return MethodTable(_REGISTRY.values())
+
+
+def get(name) -> Method:
+    """Look a method up by name (a :class:`Method` is returned unchanged)."""
+    if isinstance(name, Method):
+        return name
+    if not isinstance(name, str):
+        raise TypeError(f"method must be a method name (str), got {type(name).__name__}")
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        known = ", ".join(sorted(_REGISTRY))
+        raise ValueError(f"unknown method {name!r}; known methods: {known}") from None
+
+
+# ----------------------------------------------------------------------------------------
+# stage tables
+# ----------------------------------------------------------------------------------------
+
+_MERGEABLE = (_drv.STAGE_AXIS, _drv.STAGE_SPHERE)
+
+
+def _table(stages: list[tuple[int, int, float, tuple[float, float, float]]],
+           merge: bool = True, info: dict | None = None) -> Plan:
+    """Build a :class:`Plan`, merging adjacent flows of the same Hamiltonian."""
+    merged: list[list] = []
+    for kind, axis, coef, params in stages:
+        if coef == 0.0 or (kind in _MERGEABLE and params[0] == 0.0):
+            continue  # an identity flow (zero time or zero rate, e.g. SR2 on a symmetric body)
+        if (merge and merged and kind in _MERGEABLE and merged[-1][0] == kind
+                and merged[-1][1] == axis and merged[-1][3] == params):
+            merged[-1][2] += coef
+            if merged[-1][2] == 0.0:
+                merged.pop()
+            continue
+        merged.append([kind, axis, coef, params])
+    if not merged:  # a flow that does nothing (e.g. every rate zero)
+        merged = [[_drv.STAGE_SPHERE, 0, 1.0, (0.0, 0.0, 0.0)]]
+    first, last = merged[0], merged[-1]
+    merge_ends = (merge and len(merged) > 1 and first[0] in _MERGEABLE
+                  and first[0] == last[0] and first[1] == last[1] and first[3] == last[3])
+    return Plan(
+        kinds=np.array([s[0] for s in merged], dtype=np.int64),
+        axes=np.array([s[1] for s in merged], dtype=np.int64),
+        coefs=np.array([s[2] for s in merged], dtype=np.float64),
+        params=np.array([s[3] for s in merged], dtype=np.float64).reshape(-1, 3),
+        merge_ends=merge_ends,
+        info=dict(info or {}),
+    )
+
+
+def compose(base: list, coefficients: tuple[float, ...]) -> list:
+    """Stages of the composition ``S(g_s h) ... S(g_1 h)`` of a base stage list."""
+    out = []
+    for g in coefficients:
+        out.extend((k, a, c * g, p) for k, a, c, p in base)
+    return out
+
+
+def _axis_stages(moments, order3):
+    a, b, c = order3
+    r = [(1.0 / moments[i], 0.0, 0.0) for i in range(3)]
+    A = _drv.STAGE_AXIS
+    return [(A, a, 0.5, r[a]), (A, b, 0.5, r[b]), (A, c, 1.0, r[c]),
+            (A, b, 0.5, r[b]), (A, a, 0.5, r[a])]
+
+
+def _axis_pieces(moments, order3):
+    pieces = []
+    for i in order3:
+        d = np.zeros(3)
+        d[i] = 1.0 / moments[i]
+        pieces.append(d)
+    return pieces
+
+
+def _sr2_parts(moments, variant):
+    """SR2 variant ``(a, b, c)``: S = |m|^2/(2 I_a) + (1/I_c - 1/I_a) m_c^2/2 (exact),
+    R = (1/I_b - 1/I_a) m_b^2 / 2, step R(h/2) S(h) R(h/2)."""
+    a, b, c = variant
+    rate_r = 1.0 / moments[b] - 1.0 / moments[a]
+    rate_c = 1.0 / moments[c] - 1.0 / moments[a]
+    return rate_r, rate_c
+
+
+def _sr2_stages(moments, variant):
+    a, b, c = variant
+    rate_r, rate_c = _sr2_parts(moments, variant)
+    A, S = _drv.STAGE_AXIS, _drv.STAGE_SPHERE
+    return [(A, b, 0.5, (rate_r, 0.0, 0.0)), (S, 0, 1.0, (1.0 / moments[a], 0.0, 0.0)),
+            (A, c, 1.0, (rate_c, 0.0, 0.0)), (A, b, 0.5, (rate_r, 0.0, 0.0))]
+
+
+def _sr2_pieces(moments, variant):
+    a, b, c = variant
+    rate_r, rate_c = _sr2_parts(moments, variant)
+    R = np.zeros(3)
+    R[b] = rate_r
+    S = np.full(3, 1.0 / moments[a])
+    S[c] += rate_c
+    return [R, S]
+
+
+_ORDERINGS = tuple(itertools.permutations(range(3)))
+
+
+def best_axis_ordering(moments, m0) -> tuple[tuple[int, int, int], float]:
+    """The axis ordering ``(a, b, c)`` of ``a-b-c-b-a`` with the smallest energy-error constant.
+
+    Returns the ordering and its constant (range of ``H3`` over the orbit of ``m0``).
+    """
+    scores = [(_modified.energy_error_constant(_axis_pieces(moments, o), moments, m0), o)
+              for o in _ORDERINGS]
+    score, order = min(scores, key=lambda s: s[0])
+    return order, score
+
+
+def best_sr2_variant(moments, m0) -> tuple[tuple[int, int, int], float]:
+    """The SR2 variant with the smallest energy-error constant (0 for a symmetric body)."""
+    scores = [(_modified.energy_error_constant(_sr2_pieces(moments, v), moments, m0), v)
+              for v in _ORDERINGS]
+    score, variant = min(scores, key=lambda s: s[0])
+    return variant, score
+
+
+def best_base(moments, m0) -> tuple[str, list, dict]:
+    """The better second-order splitting for this orbit: axis splitting or SR2."""
+    order, s_axis = best_axis_ordering(moments, m0)
+    variant, s_sr2 = best_sr2_variant(moments, m0)
+    if s_sr2 <= s_axis:
+        return "sr2", _sr2_stages(moments, variant), {
+            "base": "sr2", "sr2_variant": variant, "energy_error_constant": s_sr2}
+    return "splitting2", _axis_stages(moments, order), {
+        "base": "splitting2", "axis_ordering": order, "energy_error_constant": s_axis}
+
+
+def _dmv_modified_moments(moments, m0, h: float, order: int) -> tuple[float, float, float]:
+    """Hairer–Vilmart modified moments ``1/I_i^mod = CSS / I_i + CDD`` (literature section 4).
+
+    They depend only on the invariants ``N = |m|^2/2`` and ``H = sum m_i^2/(2 I_i)``, so
+    they are computed once per run.
+    """
+    I1, I2, I3 = (float(v) for v in moments)
+    m = np.asarray(m0, dtype=float)
+    N = 0.5 * float(m @ m)
+    H = 0.5 * float(np.sum(m * m / np.array([I1, I2, I3])))
+    xdet = I1 * I2 * I3
+    xs1 = I1 + I2 + I3
+    s31 = xs1 / (6.0 * xdet)
+    s32 = -(1.0 / I1 + 1.0 / I2 + 1.0 / I3) / 3.0
+    d31 = -1.0 / (3.0 * xdet)
+    d32 = s31
+    h2 = h * h
+    css = 1.0 + h2 * (s31 * N + s32 * H)
+    cdd = h2 * (d31 * N + d32 * H)
+    if order >= 6:
+        xs2 = I1 * I1 + I2 * I2 + I3 * I3
+        xi1 = 1.0 / I1 + 1.0 / I2 + 1.0 / I3
+        xi2 = 1.0 / I1**2 + 1.0 / I2**2 + 1.0 / I3**2
+        xsi = (I1 + I2) / I3 + (I2 + I3) / I1 + (I3 + I1) / I2
+        s51 = (xs2 / xdet - xi1) / (30.0 * xdet)
+        s52 = (1.0 - xsi) / (30.0 * xdet)
+        s53 = (3.0 * xs1 / xdet + 2.0 * xi2) / 60.0
+        d51 = -xs1 / xdet**2 / 60.0
+        d52 = xi1 / xdet / 10.0 - xs2 / xdet**2 / 60.0
+        d53 = -(9.0 + xsi) / xdet / 60.0
+        h4 = h2 * h2
+        css += h4 * (s51 * N * N + s52 * N * H + s53 * H * H)
+        cdd += h4 * (d51 * N * N + d52 * N * H + d53 * H * H)
+    return tuple(1.0 / (css / I + cdd) for I in (I1, I2, I3))
+
+
+_BASELINE_KIND = {"euler": _drv.STAGE_EULER, "rk4": _drv.STAGE_RK4,
+                  "lie_euler": _drv.STAGE_LIE_EULER, "rkmk4": _drv.STAGE_RKMK4}
+
+
+def plan(method: Method, moments, m0, h: float) -> Plan:
+    """Turn ``method`` into a stage table for a free body with these moments and ``m0``."""
+    moments = tuple(float(v) for v in moments)
+    name = method.name
+    if name == "splitting2":
+        order, score = best_axis_ordering(moments, m0)
+        return _table(_axis_stages(moments, order),
+                      info={"axis_ordering": order, "energy_error_constant": score})
+    if name == "sr2":
+        variant, score = best_sr2_variant(moments, m0)
+        return _table(_sr2_stages(moments, variant),
+                      info={"sr2_variant": variant, "energy_error_constant": score})
+    if method.family == "composition":
+        _, base, info = best_base(moments, m0)
+        return _table(compose(base, method.coefficients), info=info)
+    if name == "rattle":
+        return _table([(_drv.STAGE_DMV, 0, 1.0, moments)], merge=False)
+    if name in ("dmv4", "dmv6"):
+        mod = _dmv_modified_moments(moments, m0, h, method.order)
+        return _table([(_drv.STAGE_DMV, 0, 1.0, mod)], merge=False,
+                      info={"modified_moments": mod})
+    if name == "exact":
+        return _table([(_drv.STAGE_EXACT, 0, 1.0, moments)], merge=False)
+    if name in _BASELINE_KIND:
+        return _table([(_BASELINE_KIND[name], 0, 1.0, moments)], merge=False)
+    raise ValueError(f"method {name!r} has no stage table")  # pragma: no cover

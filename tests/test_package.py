@@ -1,0 +1,31 @@
+"""Packaging promises: cheap import, nothing compiled at import, the demo runs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+
+def _python(code: str) -> str:
+    return subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                          text=True).stdout
+
+
+def test_import_loads_neither_numba_nor_scipy():
+    out = _python("import sys, liebody; print('numba' in sys.modules, 'scipy' in sys.modules)")
+    assert out.split() == ["False", "False"]
+
+
+def test_public_names_resolve_lazily():
+    out = _python(
+        "import liebody\n"
+        "for n in liebody.__all__: getattr(liebody, n)\n"
+        "print(liebody.integrate.__module__, type(liebody.methods()).__name__)")
+    assert out.split() == ["liebody._integrate", "MethodTable"]
+
+
+def test_demo_runs():
+    proc = subprocess.run([sys.executable, "-m", "liebody", "demo"], capture_output=True,
+                          text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert "Thin disk" in proc.stdout and "Euler angles" in proc.stdout
