@@ -23,6 +23,14 @@ GEOMETRIC = [m.name for m in liebody.methods() if m.symplectic or m.family == "r
 BASELINES = [m.name for m in liebody.methods() if m.family == "baseline"]
 
 
+def _drive(run, plan, h, n, state, q_out, m_out, torque_fn=None):
+    """Call the driver kernel directly (t0 = 0, save every step)."""
+    from liebody._kernels.torque import no_torque
+
+    return run(plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, h, 0.0, n, 1,
+               plan.merge_ends, state, q_out, m_out, torque_fn or no_torque)
+
+
 # ------------------------------------------------------------------------------ registry
 
 
@@ -57,12 +65,12 @@ def test_methods_table_reads_the_registry():
 
 def test_splitting2_stage_table_has_merged_ends(hlw):
     scene, L0 = hlw
-    plan = registry.plan(registry.get("splitting2"), scene.moments, L0, 0.1)
+    plan = registry.plan(registry.get("splitting2"), scene, L0, 0.1)
     assert plan.n_stages == 5 and plan.merge_ends
     np.testing.assert_allclose(plan.coefs, [0.5, 0.5, 1.0, 0.5, 0.5])
     # compositions merge adjacent half rotations: 4 s + 1 stages
     for name, s in (("splitting4", 5), ("splitting6", 9), ("splitting8", 17)):
-        p = registry.plan(registry.get(name), scene.moments, L0, 0.1)
+        p = registry.plan(registry.get(name), scene, L0, 0.1)
         assert p.n_stages == 4 * s + 1 and abs(p.coefs.sum() - 3.0) < 1e-12
 
 
@@ -103,8 +111,7 @@ def test_energy_error_matches_modified_hamiltonian_prediction(hlw):
         n = 20000
         q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
         state = np.concatenate([[1.0, 0, 0, 0], L0])
-        run(plan.kinds, plan.axes, plan.coefs, plan.params, h, n, 1, plan.merge_ends, state,
-            q_out, m_out)
+        _drive(run, plan, h, n, state, q_out, m_out)
         T = 0.5 * np.sum(m_out**2 / scene.moments, axis=1)
         T0 = 0.5 * np.sum(L0**2 / scene.moments)
         observed = T.max() - T.min()
@@ -150,11 +157,10 @@ def test_observed_order_matches_declared(name, body):
 def _kernel_run(name, scene, L0, h, n, q0=(1.0, 0.0, 0.0, 0.0)):
     from liebody._kernels.driver import run
 
-    plan = registry.plan(registry.get(name), scene.moments, L0, abs(h))
+    plan = registry.plan(registry.get(name), scene, L0, abs(h))
     q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
     state = np.concatenate([q0, L0]).astype(float)
-    run(plan.kinds, plan.axes, plan.coefs, plan.params, h, n, 1, plan.merge_ends, state,
-        q_out, m_out)
+    _drive(run, plan, h, n, state, q_out, m_out)
     return state, q_out, m_out
 
 
@@ -412,10 +418,9 @@ def test_driver_loop_allocates_nothing(hlw):
     fresh = numba.njit(run.py_func)
     scene, L0 = hlw
     for name in ("splitting2", "sr2", "rattle", "rk4"):
-        plan = registry.plan(registry.get(name), scene.moments, L0, 0.1)
+        plan = registry.plan(registry.get(name), scene, L0, 0.1)
         state = np.concatenate([[1.0, 0.0, 0.0, 0.0], L0])
-        fresh(plan.kinds, plan.axes, plan.coefs, plan.params, 0.1, 3, 1, plan.merge_ends,
-              state, np.empty((3, 4)), np.empty((3, 3)))
+        _drive(fresh, plan, 0.1, 3, state, np.empty((3, 4)), np.empty((3, 3)))
     irs = fresh.inspect_llvm()
     assert irs
     for ir in irs.values():

@@ -29,6 +29,10 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "inertia": ("liebody.inertia", None),
     "RigidBody": ("liebody.body", "RigidBody"),
     "FreeBody": ("liebody.scenes", "FreeBody"),
+    "HeavyTop": ("liebody.scenes", "HeavyTop"),
+    "TorqueBody": ("liebody.scenes", "TorqueBody"),
+    "DampedBody": ("liebody.scenes", "DampedBody"),
+    "lagrange_top": ("liebody.lagrange_top", None),
     "integrate": ("liebody._integrate", "integrate"),
     "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
@@ -38,11 +42,11 @@ _LAZY: dict[str, tuple[str, str | None]] = {
 __all__ = sorted(_LAZY) + ["__version__"]
 
 if TYPE_CHECKING:  # pragma: no cover
-    from liebody import euler, inertia, quaternion  # noqa: F401
+    from liebody import euler, inertia, lagrange_top, quaternion  # noqa: F401
     from liebody._integrate import ConvergenceError, integrate  # noqa: F401
     from liebody.body import RigidBody  # noqa: F401
     from liebody.registry import methods  # noqa: F401
-    from liebody.scenes import FreeBody  # noqa: F401
+    from liebody.scenes import DampedBody, FreeBody, HeavyTop, TorqueBody  # noqa: F401
     from liebody.trajectory import Trajectory  # noqa: F401
 
 

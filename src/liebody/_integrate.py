@@ -23,12 +23,12 @@ from liebody import registry as _registry
 from liebody._kernels.stages import STATUS_NO_CONVERGENCE, STATUS_OK
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
-from liebody.scenes import FreeBody
+from liebody.scenes import DampedBody, FreeBody, HeavyTop, TorqueBody
 from liebody.trajectory import Trajectory
 
 __all__ = ["ConvergenceError", "integrate"]
 
-_SCENES = (FreeBody,)
+_SCENES = (FreeBody, HeavyTop, TorqueBody, DampedBody)
 _PROGRESS_CHUNKS = 200
 
 
@@ -134,9 +134,10 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
                          t, q_out, m_out)
         return Trajectory(t, q_out, m_out, scene, method, dt)
 
-    plan = _registry.plan(method, body.moments, m_init, dt)
+    plan = _registry.plan(method, scene, m_init, dt)
     steps_done, n_saved, status = _run(plan, dt, n_steps, save_every, q_init, m_init,
-                                       q_out[1:], m_out[1:], progress)
+                                       q_out[1:], m_out[1:], progress,
+                                       scene.torque_callback())
     if status == STATUS_NO_CONVERGENCE:
         raise ConvergenceError(
             f"{method.name}: the implicit step equation did not converge at step "
@@ -153,14 +154,15 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     return Trajectory(t, q_out, m_out, scene, method, dt, failed_at=failed_at, info=plan.info)
 
 
-def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress):
+def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress, torque_fn):
     """Run the driver, in chunks of whole save intervals when showing progress."""
     from liebody._kernels.driver import run
 
     state = np.concatenate([q_init, m_init])
-    args = (plan.kinds, plan.axes, plan.coefs, plan.params, dt)
+    args = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, dt)
     if not progress:
-        return run(*args, n_steps, save_every, plan.merge_ends, state, q_out, m_out)
+        return run(*args, 0.0, n_steps, save_every, plan.merge_ends, state, q_out, m_out,
+                   torque_fn)
 
     from tqdm.auto import tqdm
 
@@ -169,8 +171,8 @@ def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress):
     with tqdm(total=n_steps, unit="step", unit_scale=True) as bar:
         while done < n_steps:
             n = min(chunk, n_steps - done)
-            d, s, status = run(*args, n, save_every, plan.merge_ends, state,
-                               q_out[saved:], m_out[saved:])
+            d, s, status = run(*args, done * dt, n, save_every, plan.merge_ends, state,
+                               q_out[saved:], m_out[saved:], torque_fn)
             done += d
             saved += s
             bar.update(d)

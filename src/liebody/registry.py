@@ -109,6 +109,7 @@ class Plan:
     kinds: np.ndarray
     axes: np.ndarray
     coefs: np.ndarray
+    clock: np.ndarray
     params: np.ndarray
     merge_ends: bool
     info: dict = field(default_factory=dict)
@@ -119,6 +120,8 @@ class Plan:
 
 
 _FREE = ("FreeBody",)
+_CONSERVATIVE = ("FreeBody", "HeavyTop", "TorqueBody")
+_ALL = (*_CONSERVATIVE, "DampedBody")
 
 _REGISTRY: dict[str, Method] = {}
 
@@ -134,7 +137,7 @@ _register(Method(
     description="Exact free-body flow (Jacobi elliptic functions, Carlson R_F/R_J; "
                 "trig functions only for symmetric bodies), evaluated at the output times."))
 _register(Method(
-    "splitting2", "splitting", 2, True, True, True, False, _FREE,
+    "splitting2", "splitting", 2, True, True, True, False, _ALL,
     "4 axis rotations (4 sin/cos pairs), end rotations merged",
     description="Symmetric 5-rotation splitting of T into exact axis sub-flows; the axis "
                 "ordering is chosen per orbit from the leading modified-Hamiltonian term."))
@@ -144,14 +147,14 @@ _register(Method(
     description="Symmetric-body + one-rotation splitting (Touma–Wisdom, Hairer–Vilmart SR2): "
                 "exact for symmetric bodies, far more accurate for nearly symmetric ones."))
 _register(Method(
-    "rattle", "rattle", 2, True, True, True, True, _FREE,
+    "rattle", "rattle", 2, True, True, True, True, _CONSERVATIVE,
     "1 implicit 3x3 solve (about 5-8 fixed-point iterations, no trig)",
     description="RATTLE on SO(3) in its discrete Moser–Veselov quaternion form; the implicit "
                 "equation is solved to round-off (fixed point, Newton fallback)."))
 for _name, _comp, _order in (("splitting4", "suzuki4", 4), ("splitting6", "kahanli6", 6),
                              ("splitting8", "kahanli8", 8)):
     _register(Method(
-        _name, "composition", _order, True, True, True, False, _FREE,
+        _name, "composition", _order, True, True, True, False, _CONSERVATIVE,
         f"{len(COMPOSITIONS[_comp])} base steps ({_comp})",
         coefficients=COMPOSITIONS[_comp],
         description=f"{_comp} composition of the best second-order splitting for the orbit."))
@@ -165,20 +168,20 @@ _register(Method(
     "1 DMV step with modified moments (same cost as rattle)",
     description="Hairer–Vilmart preprocessed DMV of order 6."))
 _register(Method(
-    "euler", "baseline", 1, False, False, False, False, _FREE, "1 right-hand side",
+    "euler", "baseline", 1, False, False, False, False, _ALL, "1 right-hand side",
     description="Explicit Euler on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
                 "grow every step. Kept to show failure."))
 _register(Method(
-    "rk4", "baseline", 4, False, False, False, False, _FREE, "4 right-hand sides",
+    "rk4", "baseline", 4, False, False, False, False, _ALL, "4 right-hand sides",
     description="Classical RK4 on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
                 "drift. Kept to show failure."))
 _register(Method(
-    "lie_euler", "baseline", 1, False, False, True, False, _FREE,
+    "lie_euler", "baseline", 1, False, False, True, False, _ALL,
     "1 quaternion exponential",
     description="Lie–Euler (coadjoint form): stays on SO(3), keeps |L|, drives L to the "
                 "maximum-energy axis."))
 _register(Method(
-    "rkmk4", "baseline", 4, False, False, True, False, _FREE,
+    "rkmk4", "baseline", 4, False, False, True, False, _ALL,
     "4 quaternion exponentials",
     description="Runge–Kutta–Munthe-Kaas with the RK4 tableau: on SO(3), keeps |L|, energy "
                 "drifts linearly."))
@@ -249,25 +252,34 @@ def get(name) -> Method:
 # stage tables
 # ----------------------------------------------------------------------------------------
 
-_MERGEABLE = (_drv.STAGE_AXIS, _drv.STAGE_SPHERE)
+_MERGEABLE = (_drv.STAGE_AXIS, _drv.STAGE_SPHERE, _drv.STAGE_KICK)
+
+#: a stage: (kind, axis, coef, params, clock); params padded to N_PARAMS
+Stage = tuple[int, int, float, tuple[float, ...], float]
 
 
-def _table(stages: list[tuple[int, int, float, tuple[float, float, float]]],
-           merge: bool = True, info: dict | None = None) -> Plan:
+def _stage(kind: int, axis: int, coef: float, params, clock: float = 0.0) -> Stage:
+    p = tuple(float(v) for v in params)
+    return (kind, axis, float(coef), p + (0.0,) * (_drv.N_PARAMS - len(p)), float(clock))
+
+
+def _table(stages: list[Stage], merge: bool = True, info: dict | None = None) -> Plan:
     """Build a :class:`Plan`, merging adjacent flows of the same Hamiltonian."""
     merged: list[list] = []
-    for kind, axis, coef, params in stages:
-        if coef == 0.0 or (kind in _MERGEABLE and params[0] == 0.0):
+    for kind, axis, coef, params, clock in stages:
+        if coef == 0.0 or (kind in _MERGEABLE and kind != _drv.STAGE_KICK
+                           and params[0] == 0.0):
             continue  # an identity flow (zero time or zero rate, e.g. SR2 on a symmetric body)
         if (merge and merged and kind in _MERGEABLE and merged[-1][0] == kind
                 and merged[-1][1] == axis and merged[-1][3] == params):
             merged[-1][2] += coef
-            if merged[-1][2] == 0.0:
+            merged[-1][4] += clock
+            if merged[-1][2] == 0.0 and merged[-1][4] == 0.0:
                 merged.pop()
             continue
-        merged.append([kind, axis, coef, params])
+        merged.append([kind, axis, coef, params, clock])
     if not merged:  # a flow that does nothing (e.g. every rate zero)
-        merged = [[_drv.STAGE_SPHERE, 0, 1.0, (0.0, 0.0, 0.0)]]
+        merged = [list(_stage(_drv.STAGE_SPHERE, 0, 1.0, (0.0,), 1.0))]
     first, last = merged[0], merged[-1]
     merge_ends = (merge and len(merged) > 1 and first[0] in _MERGEABLE
                   and first[0] == last[0] and first[1] == last[1] and first[3] == last[3])
@@ -275,26 +287,28 @@ def _table(stages: list[tuple[int, int, float, tuple[float, float, float]]],
         kinds=np.array([s[0] for s in merged], dtype=np.int64),
         axes=np.array([s[1] for s in merged], dtype=np.int64),
         coefs=np.array([s[2] for s in merged], dtype=np.float64),
-        params=np.array([s[3] for s in merged], dtype=np.float64).reshape(-1, 3),
+        clock=np.array([s[4] for s in merged], dtype=np.float64),
+        params=np.array([s[3] for s in merged], dtype=np.float64).reshape(-1, _drv.N_PARAMS),
         merge_ends=merge_ends,
         info=dict(info or {}),
     )
 
 
-def compose(base: list, coefficients: tuple[float, ...]) -> list:
+def compose(base: list[Stage], coefficients: tuple[float, ...]) -> list[Stage]:
     """Stages of the composition ``S(g_s h) ... S(g_1 h)`` of a base stage list."""
     out = []
     for g in coefficients:
-        out.extend((k, a, c * g, p) for k, a, c, p in base)
+        out.extend((k, a, c * g, p, ck * g) for k, a, c, p, ck in base)
     return out
 
 
-def _axis_stages(moments, order3):
+def _axis_stages(moments, order3) -> list[Stage]:
     a, b, c = order3
-    r = [(1.0 / moments[i], 0.0, 0.0) for i in range(3)]
     A = _drv.STAGE_AXIS
-    return [(A, a, 0.5, r[a]), (A, b, 0.5, r[b]), (A, c, 1.0, r[c]),
-            (A, b, 0.5, r[b]), (A, a, 0.5, r[a])]
+    r = [1.0 / moments[i] for i in range(3)]
+    return [_stage(A, a, 0.5, (r[a],)), _stage(A, b, 0.5, (r[b],)),
+            _stage(A, c, 1.0, (r[c],), clock=1.0),
+            _stage(A, b, 0.5, (r[b],)), _stage(A, a, 0.5, (r[a],))]
 
 
 def _axis_pieces(moments, order3):
@@ -319,8 +333,8 @@ def _sr2_stages(moments, variant):
     a, b, c = variant
     rate_r, rate_c = _sr2_parts(moments, variant)
     A, S = _drv.STAGE_AXIS, _drv.STAGE_SPHERE
-    return [(A, b, 0.5, (rate_r, 0.0, 0.0)), (S, 0, 1.0, (1.0 / moments[a], 0.0, 0.0)),
-            (A, c, 1.0, (rate_c, 0.0, 0.0)), (A, b, 0.5, (rate_r, 0.0, 0.0))]
+    return [_stage(A, b, 0.5, (rate_r,)), _stage(S, 0, 1.0, (1.0 / moments[a],), clock=1.0),
+            _stage(A, c, 1.0, (rate_c,)), _stage(A, b, 0.5, (rate_r,))]
 
 
 def _sr2_pieces(moments, variant):
@@ -406,9 +420,57 @@ _BASELINE_KIND = {"euler": _drv.STAGE_EULER, "rk4": _drv.STAGE_RK4,
                   "lie_euler": _drv.STAGE_LIE_EULER, "rkmk4": _drv.STAGE_RKMK4}
 
 
-def plan(method: Method, moments, m0, h: float) -> Plan:
-    """Turn ``method`` into a stage table for a free body with these moments and ``m0``."""
-    moments = tuple(float(v) for v in moments)
+def free_flow_stages(body) -> tuple[list[Stage], str]:
+    """The exact free flow of a body as stages, cheapest form first.
+
+    A spherical body: one sphere rotation; a symmetric body: sphere rotation plus a
+    rotation about the symmetry axis (trig functions only); otherwise the elliptic
+    exact flow. Used as the drift of the splittings of torqued scenes.
+    """
+    I = tuple(float(v) for v in body.moments)
+    if body.is_spherical:
+        return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (3.0 / sum(I),), clock=1.0)], "sphere"
+    if body.is_symmetric:
+        c = body.symmetry_axis
+        a = (c + 1) % 3
+        return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (1.0 / I[a],), clock=1.0),
+                _stage(_drv.STAGE_AXIS, c, 1.0, (1.0 / I[c] - 1.0 / I[a],))], "symmetric"
+    return [_stage(_drv.STAGE_EXACT, 0, 1.0, I, clock=1.0)], "elliptic"
+
+
+def plan(method: Method, scene, m0, h: float) -> Plan:
+    """Turn ``method`` into a stage table for ``scene``, its initial ``m0`` and step ``h``."""
+    body = scene.body
+    moments = tuple(float(v) for v in body.moments)
+    torque_kind, c = scene.torque_parameters()
+    eps = scene.damping_parameter()
+    name = method.name
+    if name in _BASELINE_KIND:
+        return _table([_stage(_BASELINE_KIND[name], 0, 1.0,
+                              (*moments, float(torque_kind), *c, eps), clock=1.0)],
+                      merge=False)
+    if type(scene).__name__ == "FreeBody":
+        return _plan_free(method, moments, m0, h)
+
+    free, free_kind = free_flow_stages(body)
+    info = {"free_flow": free_kind}
+    if eps != 0.0:  # dissipation: D(h/2) F(h) D(h/2)
+        side = _stage(_drv.STAGE_DAMP, 0, 0.5, (*moments, eps))
+    else:  # torque kicks: K(h/2) F(h) K(h/2)
+        side = _stage(_drv.STAGE_KICK, 0, 0.5, (float(torque_kind), *c))
+    if name == "rattle":
+        free = [_stage(_drv.STAGE_DMV, 0, 1.0, moments, clock=1.0)]
+        info = {"free_flow": "dmv"}
+    base = [side, *free, side]
+    if method.family == "composition":
+        return _table(compose(base, method.coefficients), info=info)
+    if name in ("splitting2", "rattle"):
+        return _table(base, info=info)
+    raise ValueError(f"method {name!r} has no stage table for "  # pragma: no cover
+                     f"{type(scene).__name__}")
+
+
+def _plan_free(method: Method, moments, m0, h: float) -> Plan:
     name = method.name
     if name == "splitting2":
         order, score = best_axis_ordering(moments, m0)
@@ -422,13 +484,11 @@ def plan(method: Method, moments, m0, h: float) -> Plan:
         _, base, info = best_base(moments, m0)
         return _table(compose(base, method.coefficients), info=info)
     if name == "rattle":
-        return _table([(_drv.STAGE_DMV, 0, 1.0, moments)], merge=False)
+        return _table([_stage(_drv.STAGE_DMV, 0, 1.0, moments, clock=1.0)], merge=False)
     if name in ("dmv4", "dmv6"):
         mod = _dmv_modified_moments(moments, m0, h, method.order)
-        return _table([(_drv.STAGE_DMV, 0, 1.0, mod)], merge=False,
+        return _table([_stage(_drv.STAGE_DMV, 0, 1.0, mod, clock=1.0)], merge=False,
                       info={"modified_moments": mod})
     if name == "exact":
-        return _table([(_drv.STAGE_EXACT, 0, 1.0, moments)], merge=False)
-    if name in _BASELINE_KIND:
-        return _table([(_BASELINE_KIND[name], 0, 1.0, moments)], merge=False)
+        return _table([_stage(_drv.STAGE_EXACT, 0, 1.0, moments, clock=1.0)], merge=False)
     raise ValueError(f"method {name!r} has no stage table")  # pragma: no cover

@@ -57,23 +57,36 @@ class Trajectory:
         return 0.5 * np.sum(self.L * self.L / self.moments, axis=-1)
 
     @property
+    def orientation(self) -> np.ndarray:
+        """``q / |q|``: the rotation the samples stand for (the baselines let ``|q|`` drift)."""
+        from liebody import quaternion
+
+        return quaternion.normalize(self.q) if len(self) else self.q
+
+    @property
+    def potential_energy(self) -> np.ndarray:
+        """The scene's potential at the samples (zero for a free body)."""
+        return self.scene.potential(self.orientation)
+
+    @property
     def energy(self) -> np.ndarray:
-        """Total energy: kinetic plus the scene's potential (zero for a free body)."""
-        return self.kinetic_energy + self.scene.potential(self.q)
+        """Total energy: kinetic plus the scene's potential."""
+        return self.kinetic_energy + self.potential_energy
 
     @property
     def L_space(self) -> np.ndarray:
         """Space-frame angular momentum ``R(q) L`` (constant for a free body)."""
         from liebody import quaternion
 
-        return quaternion.rotate(self.q, self.L) if len(self) else np.empty((0, 3))
+        return quaternion.rotate(self.orientation, self.L) if len(self) else np.empty((0, 3))
 
     @property
     def omega_space(self) -> np.ndarray:
         """Space-frame angular velocity ``R(q) omega``."""
         from liebody import quaternion
 
-        return quaternion.rotate(self.q, self.omega) if len(self) else np.empty((0, 3))
+        return (quaternion.rotate(self.orientation, self.omega) if len(self)
+                else np.empty((0, 3)))
 
     @property
     def casimir(self) -> np.ndarray:
@@ -93,7 +106,7 @@ class Trajectory:
         """
         from liebody import euler
 
-        angles = euler.from_quaternion(self.q / self.quaternion_norm[:, None])
+        angles = euler.from_quaternion(self.orientation)
         return euler.unwrap(angles) if unwrap else angles
 
     def __repr__(self) -> str:

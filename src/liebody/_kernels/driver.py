@@ -1,14 +1,18 @@
 """The one composition driver: runs any method given as a stage table.
 
 A method is data (see :mod:`liebody.registry`): a sequence of *stages*, each a
-one-step map applied for ``coef * h``. The table is four arrays of equal length::
+one-step map applied for ``coef * h``. The table is five arrays of equal length::
 
-    kinds  int64 (s,)    which map (the STAGE_* constants below)
-    axes   int64 (s,)    body axis for axis rotations (0, 1, 2), else unused
-    coefs  float64 (s,)  fraction of the step h the stage runs for
-    params float64 (s, 3) per-stage constants: rate for AXIS/SPHERE, moments for the rest
+    kinds  int64 (s,)     which map (the STAGE_* constants of stages.py)
+    axes   int64 (s,)     body axis for axis rotations (0, 1, 2), else unused
+    coefs  float64 (s,)   fraction of the step h the stage runs for
+    clock  float64 (s,)   fraction of h by which the clock advances during the stage
+    params float64 (s, 8) per-stage constants:
+                          AXIS, SPHERE: rate; DMV, EXACT: moments;
+                          KICK: torque kind, c = M g cm; DAMP: moments, eps;
+                          baselines: moments, torque kind, c, eps
 
-Splitting methods are sequences of AXIS/SPHERE stages (exact sub-flows),
+Splitting methods are sequences of exact sub-flows (rotations, kicks),
 compositions repeat a base table with scaled coefficients, and the other families
 (DMV/RATTLE, the exact flow, the baselines) are single stages of their own kind, so
 one loop runs them all. When the first and last stages are flows of the same
@@ -36,9 +40,11 @@ from liebody._kernels.flows import (
 )
 from liebody._kernels.stages import (
     STAGE_AXIS,
+    STAGE_DAMP,
     STAGE_DMV,
     STAGE_EULER,
     STAGE_EXACT,
+    STAGE_KICK,
     STAGE_LIE_EULER,
     STAGE_RK4,
     STAGE_SPHERE,
@@ -46,41 +52,49 @@ from liebody._kernels.stages import (
     STATUS_NONFINITE,
     STATUS_OK,
 )
-
-
-@njit(cache=True)
-def apply_stage(kind, axis, p0, p1, p2, tau, w, x, y, z, m1, m2, m3):
-    """Apply one stage for time ``tau``; returns the state and a status flag."""
-    if kind == STAGE_AXIS:
-        r = axis_flow(w, x, y, z, m1, m2, m3, axis, p0, tau)
-        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-    elif kind == STAGE_SPHERE:
-        r = sphere_flow(w, x, y, z, m1, m2, m3, p0, tau)
-        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-    elif kind == STAGE_DMV:
-        r8 = dmv_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
-        st = STATUS_OK if r8[7] >= 0 else STATUS_NO_CONVERGENCE
-        return r8[0], r8[1], r8[2], r8[3], r8[4], r8[5], r8[6], st
-    elif kind == STAGE_EXACT:
-        r = exact_flow(p0, p1, p2, w, x, y, z, m1, m2, m3, tau)
-    elif kind == STAGE_EULER:
-        r = euler_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
-    elif kind == STAGE_RK4:
-        r = rk4_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
-    elif kind == STAGE_LIE_EULER:
-        r = lie_euler_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
-    else:
-        r = rkmk4_step(w, x, y, z, m1, m2, m3, p0, p1, p2, tau)
-    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-
+from liebody._kernels.torque import damping_flow, torque_value
 
 MODE_AXES = 0  # every stage an axis rotation (splitting2 and its compositions)
 MODE_ROTATIONS = 1  # axis and sphere rotations (sr2 and its compositions)
 MODE_GENERAL = 2
 
 
+@njit(cache=True)
+def apply_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+    """Apply one stage (parameters ``p``, clock ``t``) for time ``tau``; state and status."""
+    if kind == STAGE_AXIS:
+        r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[0], tau)
+    elif kind == STAGE_SPHERE:
+        r = sphere_flow(w, x, y, z, m1, m2, m3, p[0], tau)
+    elif kind == STAGE_KICK:
+        n1, n2, n3 = torque_value(int(p[0]), p[1], p[2], p[3], t, w, x, y, z, m1, m2, m3,
+                                  torque_fn)
+        r = (w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3)
+    elif kind == STAGE_DMV:
+        r8 = dmv_step(w, x, y, z, m1, m2, m3, p[0], p[1], p[2], tau)
+        st = STATUS_OK if r8[7] >= 0 else STATUS_NO_CONVERGENCE
+        return r8[0], r8[1], r8[2], r8[3], r8[4], r8[5], r8[6], st
+    elif kind == STAGE_EXACT:
+        r = exact_flow(p[0], p[1], p[2], w, x, y, z, m1, m2, m3, tau)
+    elif kind == STAGE_DAMP:
+        r = damping_flow(w, x, y, z, m1, m2, m3, p[0], p[1], p[2], p[3], tau)
+    elif kind == STAGE_EULER:
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p[0], p[1], p[2], int(p[3]), p[4], p[5],
+                       p[6], p[7], tau, torque_fn)
+    elif kind == STAGE_RK4:
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p[0], p[1], p[2], int(p[3]), p[4], p[5],
+                     p[6], p[7], tau, torque_fn)
+    elif kind == STAGE_LIE_EULER:
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p[0], p[1], p[2], int(p[3]), p[4],
+                           p[5], p[6], p[7], tau, torque_fn)
+    else:
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p[0], p[1], p[2], int(p[3]), p[4], p[5],
+                       p[6], p[7], tau, torque_fn)
+    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
+
+
 @njit(cache=True, inline="always")
-def _apply(mode, kinds, axes, params, j, tau, w, x, y, z, m1, m2, m3):
+def _apply(mode, kinds, axes, params, j, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     """Stage ``j`` for time ``tau``, dispatched on the loop-invariant ``mode``.
 
     Inlined so that LLVM can specialise the stepping loop per mode: splittings then
@@ -95,17 +109,19 @@ def _apply(mode, kinds, axes, params, j, tau, w, x, y, z, m1, m2, m3):
         else:
             r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, 0], tau)
         return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-    return apply_stage(kinds[j], axes[j], params[j, 0], params[j, 1], params[j, 2], tau,
-                       w, x, y, z, m1, m2, m3)
+    return apply_stage(kinds[j], axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3,
+                       torque_fn)
 
 
 @njit(cache=True)
-def run(kinds, axes, coefs, params, h, n_steps, save_every, merge_ends, state, q_out, m_out):
-    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
+def run(kinds, axes, coefs, clock, params, h, t0, n_steps, save_every, merge_ends, state,
+        q_out, m_out, torque_fn):
+    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h`` from ``t0``.
 
     The state after every ``save_every``-th step, and after the last step, is written
     to consecutive rows of ``q_out`` / ``m_out`` (row 0 is the first save *after* the
-    start). ``state`` is updated in place with the last state reached.
+    start). ``state`` is updated in place with the last state reached. ``torque_fn``
+    is the user torque callback (``torque.TORQUE_SIG``), used by user-torque stages.
 
     Returns ``(steps_done, n_saved, status)``. On a non-finite state or a DMV
     failure the loop stops and ``state`` holds the last finite state, the one after
@@ -128,12 +144,18 @@ def run(kinds, axes, coefs, params, h, n_steps, save_every, merge_ends, state, q
     for step in range(n_steps):
         gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
         status = STATUS_OK
-        j0 = 1 if pending else 0
+        t = t0 + step * h  # clock at the start of the step (no accumulated rounding)
+        j0 = 0
+        if pending:
+            j0 = 1
+            t += clock[0] * h
         for j in range(j0, last):
-            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, j, coefs[j] * h,
-                                                    w, x, y, z, m1, m2, m3)
+            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, j, t,
+                                                    coefs[j] * h, w, x, y, z, m1, m2, m3,
+                                                    torque_fn)
             if status != STATUS_OK:
                 break
+            t += clock[j] * h
         until_save -= 1
         save_now = until_save == 0 or step == n_steps - 1
         if status == STATUS_OK:
@@ -143,8 +165,8 @@ def run(kinds, axes, coefs, params, h, n_steps, save_every, merge_ends, state, q
             else:
                 tau = coefs[last] * h
                 pending = False
-            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, last, tau,
-                                                    w, x, y, z, m1, m2, m3)
+            w, x, y, z, m1, m2, m3, status = _apply(mode, kinds, axes, params, last, t, tau,
+                                                    w, x, y, z, m1, m2, m3, torque_fn)
         if status == STATUS_OK:
             acc = w + x + y + z + m1 + m2 + m3
             if not (abs(acc) < 1e308):

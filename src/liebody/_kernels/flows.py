@@ -17,6 +17,7 @@ import math
 from numba import njit
 
 from liebody._kernels.quat import qaxis_rotation, qexp, qmul, qrotate_inv
+from liebody._kernels.torque import TORQUE_NONE, damping_rate, torque_value
 
 #: DMV iteration limits
 DMV_MAX_FIXED_POINT = 60
@@ -159,41 +160,52 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
 
 
 @njit(cache=True)
-def _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3):
-    """Right-hand side ``(q', m')`` of the free rigid body in R^7 (no constraint)."""
+def _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn):
+    """Right-hand side ``(q', m')`` in R^7 (no constraint), with torque and dissipation.
+
+    ``omega_e = omega + eps m x omega``; ``q' = q (0, omega_e)/2``;
+    ``m' = m x omega_e + tau(t, q, m)``.
+    """
     o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
+    if eps != 0.0:
+        d1, d2, d3 = damping_rate(m1, m2, m3, I1, I2, I3, eps)
+        o1, o2, o3 = o1 + d1, o2 + d2, o3 + d3
     dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
+    n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
     return (dw, dx, dy, dz,
-            m2 * o3 - m3 * o2, m3 * o1 - m1 * o3, m1 * o2 - m2 * o1)
+            m2 * o3 - m3 * o2 + n1, m3 * o1 - m1 * o3 + n2, m1 * o2 - m2 * o1 + n3)
 
 
 @njit(cache=True)
-def euler_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+def euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Explicit Euler on ``(q, m)`` in R^7, no renormalisation (baseline: fails).
 
-    Order 1. Energy and ``|m|`` grow every step; ``|q|`` grows like
-    ``sqrt(1 + (h |omega| / 2)^2)`` per step (literature section 9).
+    Order 1. For the free body energy and ``|m|`` grow every step and ``|q|`` grows
+    like ``sqrt(1 + (h |omega| / 2)^2)`` per step (literature section 9).
     """
-    k = _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3)
+    k = _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn)
     return (w + h * k[0], x + h * k[1], y + h * k[2], z + h * k[3],
             m1 + h * k[4], m2 + h * k[5], m3 + h * k[6])
 
 
 @njit(cache=True)
-def rk4_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
+def rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Classical Runge–Kutta 4 on ``(q, m)`` in R^7, no renormalisation (baseline).
 
     Order 4; not symplectic, not symmetric: energy and ``|m|`` drift linearly,
     ``|q|`` decays by about ``(h|omega|/2)^6 / 144`` per step (literature section 9).
     """
-    k1 = _rhs(w, x, y, z, m1, m2, m3, I1, I2, I3)
+    k1 = _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn)
     b = 0.5 * h
-    k2 = _rhs(w + b * k1[0], x + b * k1[1], y + b * k1[2], z + b * k1[3],
-              m1 + b * k1[4], m2 + b * k1[5], m3 + b * k1[6], I1, I2, I3)
-    k3 = _rhs(w + b * k2[0], x + b * k2[1], y + b * k2[2], z + b * k2[3],
-              m1 + b * k2[4], m2 + b * k2[5], m3 + b * k2[6], I1, I2, I3)
-    k4 = _rhs(w + h * k3[0], x + h * k3[1], y + h * k3[2], z + h * k3[3],
-              m1 + h * k3[4], m2 + h * k3[5], m3 + h * k3[6], I1, I2, I3)
+    k2 = _rhs(t + b, w + b * k1[0], x + b * k1[1], y + b * k1[2], z + b * k1[3],
+              m1 + b * k1[4], m2 + b * k1[5], m3 + b * k1[6], I1, I2, I3, tk, c1, c2, c3,
+              eps, torque_fn)
+    k3 = _rhs(t + b, w + b * k2[0], x + b * k2[1], y + b * k2[2], z + b * k2[3],
+              m1 + b * k2[4], m2 + b * k2[5], m3 + b * k2[6], I1, I2, I3, tk, c1, c2, c3,
+              eps, torque_fn)
+    k4 = _rhs(t + h, w + h * k3[0], x + h * k3[1], y + h * k3[2], z + h * k3[3],
+              m1 + h * k3[4], m2 + h * k3[5], m3 + h * k3[6], I1, I2, I3, tk, c1, c2, c3,
+              eps, torque_fn)
     s = h / 6.0
     return (w + s * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
             x + s * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
@@ -214,13 +226,26 @@ def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
 
 
 @njit(cache=True)
-def lie_euler_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
-    """Lie–Euler: ``sigma = h omega(m)``, then :func:`_coadjoint` (literature section 7).
+def _omega_e(m1, m2, m3, I1, I2, I3, eps):
+    o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
+    if eps != 0.0:
+        d1, d2, d3 = damping_rate(m1, m2, m3, I1, I2, I3, eps)
+        o1, o2, o3 = o1 + d1, o2 + d2, o3 + d3
+    return o1, o2, o3
 
-    Order 1; stays on SO(3) and keeps ``|m|`` exactly, but is neither symplectic nor
-    symmetric: it drives ``m`` towards the axis of maximum energy.
+
+@njit(cache=True)
+def lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
+    """Lie–Euler: ``sigma = h omega_e(m)``, coadjoint update, plus ``h tau(t, q, m)``.
+
+    Order 1 (literature section 7); stays on SO(3); without an external torque it
+    keeps ``|m|`` exactly, but it is neither symplectic nor symmetric: it drives ``m``
+    towards the axis of maximum energy.
     """
-    return _coadjoint(w, x, y, z, m1, m2, m3, h * m1 / I1, h * m2 / I2, h * m3 / I3)
+    n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
+    o1, o2, o3 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
+    r = _coadjoint(w, x, y, z, m1, m2, m3, h * o1, h * o2, h * o3)
+    return r[0], r[1], r[2], r[3], r[4] + h * n1, r[5] + h * n2, r[6] + h * n3
 
 
 @njit(cache=True)
@@ -239,24 +264,67 @@ def _dexpinv(u1, u2, u3, v1, v2, v3):
 
 
 @njit(cache=True)
-def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, h):
-    """``dexpinv(u, h omega(exp(-hat u) m))``: one RKMK stage derivative."""
+def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, eps, h):
+    """``dexpinv(u, h omega_e(exp(-hat u) m))``: one coadjoint RKMK stage derivative."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
     n1, n2, n3 = qrotate_inv(ew, ex, ey, ez, m1, m2, m3)
-    return _dexpinv(u1, u2, u3, h * n1 / I1, h * n2 / I2, h * n3 / I3)
+    o1, o2, o3 = _omega_e(n1, n2, n3, I1, I2, I3, eps)
+    return _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
 
 
 @njit(cache=True)
-def rkmk4_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
-    """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (literature section 7).
-
-    Order 4; stays on SO(3) and keeps ``|m|`` exactly; energy drifts linearly.
-    """
-    k1 = (h * m1 / I1, h * m2 / I2, h * m3 / I3)
-    k2 = _rkmk_stage(m1, m2, m3, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2], I1, I2, I3, h)
-    k3 = _rkmk_stage(m1, m2, m3, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2], I1, I2, I3, h)
-    k4 = _rkmk_stage(m1, m2, m3, k3[0], k3[1], k3[2], I1, I2, I3, h)
+def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h):
+    k1 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
+    k1 = (h * k1[0], h * k1[1], h * k1[2])
+    k2 = _rkmk_stage(m1, m2, m3, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2], I1, I2, I3, eps, h)
+    k3 = _rkmk_stage(m1, m2, m3, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2], I1, I2, I3, eps, h)
+    k4 = _rkmk_stage(m1, m2, m3, k3[0], k3[1], k3[2], I1, I2, I3, eps, h)
     s1 = (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]) / 6.0
     s2 = (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]) / 6.0
     s3 = (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]) / 6.0
     return _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3)
+
+
+@njit(cache=True)
+def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3,
+                         eps, h, torque_fn):
+    """Stage derivatives on SO(3) x R^3: ``(dexpinv(u, h omega_e), h m')`` at ``(q exp(u), m)``."""
+    ew, ex, ey, ez = qexp(u1, u2, u3)
+    qw, qx, qy, qz = qmul(w, x, y, z, ew, ex, ey, ez)
+    o1, o2, o3 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
+    n1, n2, n3 = torque_value(tk, c1, c2, c3, t, qw, qx, qy, qz, m1, m2, m3, torque_fn)
+    a1, a2, a3 = _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
+    return (a1, a2, a3, h * (m2 * o3 - m3 * o2 + n1), h * (m3 * o1 - m1 * o3 + n2),
+            h * (m1 * o2 - m2 * o1 + n3))
+
+
+@njit(cache=True)
+def rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
+    """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (literature section 7).
+
+    Order 4; stays on SO(3). Without an external torque ``m`` moves by the coadjoint
+    action (``|m|`` kept exactly); with one, the method runs on SO(3) x R^3 (``m``
+    additive). Energy drifts linearly.
+    """
+    if tk == TORQUE_NONE:
+        return _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h)
+    b = 0.5 * h
+    k1 = _rkmk4_stage_torqued(t, w, x, y, z, 0.0, 0.0, 0.0, m1, m2, m3, I1, I2, I3, tk,
+                              c1, c2, c3, eps, h, torque_fn)
+    k2 = _rkmk4_stage_torqued(t + b, w, x, y, z, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2],
+                              m1 + 0.5 * k1[3], m2 + 0.5 * k1[4], m3 + 0.5 * k1[5],
+                              I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn)
+    k3 = _rkmk4_stage_torqued(t + b, w, x, y, z, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2],
+                              m1 + 0.5 * k2[3], m2 + 0.5 * k2[4], m3 + 0.5 * k2[5],
+                              I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn)
+    k4 = _rkmk4_stage_torqued(t + h, w, x, y, z, k3[0], k3[1], k3[2],
+                              m1 + k3[3], m2 + k3[4], m3 + k3[5],
+                              I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn)
+    s0 = (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]) / 6.0
+    s1 = (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]) / 6.0
+    s2 = (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]) / 6.0
+    ew, ex, ey, ez = qexp(s0, s1, s2)
+    w, x, y, z = qmul(w, x, y, z, ew, ex, ey, ez)
+    return (w, x, y, z, m1 + (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]) / 6.0,
+            m2 + (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4]) / 6.0,
+            m3 + (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5]) / 6.0)

@@ -12,3 +12,12 @@ STAGE_RKMK4 = 7  # Runge-Kutta-Munthe-Kaas 4 (params = moments)
 STATUS_OK = 0
 STATUS_NONFINITE = 1
 STATUS_NO_CONVERGENCE = 2
+STAGE_KICK = 8  # torque kick, q fixed (params = torque kind, c1, c2, c3)
+STAGE_DAMP = 9  # double-bracket dissipation sub-flow (params = moments, eps)
+
+#: width of the per-stage parameter rows
+N_PARAMS = 8
+
+TORQUE_NONE = 0
+TORQUE_GRAVITY = 1
+TORQUE_USER = 2
