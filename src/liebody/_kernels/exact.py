@@ -32,8 +32,8 @@ and time to ``tau = G t``):
   the unstable intermediate axis included): steady rotation ``q <- q exp(t omega)``.
 * spherical body (all moments equal within ``SYM_RTOL``): ``q <- q exp(t m / I)``.
 * symmetric body (two moments equal within ``SYM_RTOL``; symmetry axis ``s``,
-  transverse moment ``I_p``): ``q <- q exp(t m / I_p)``, then a rotation by
-  ``a = t m_s (1/I_s - 1/I_p)`` about body axis ``e_s`` applied to both ``m``
+  transverse moment ``I_perp``): ``q <- q exp(t m / I_perp)``, then a rotation by
+  ``a = t m_s (1/I_s - 1/I_perp)`` about body axis ``e_s`` applied to both ``m``
   (``m <- R_s(a)^T m``) and ``q`` (``q <- q (cos a/2, sin a/2 e_s)``); the two commute.
   Trig functions only.
 * asymmetric body: Jacobi elliptic functions. The caller's axes are relabelled
@@ -96,12 +96,16 @@ Separatrix (``Delta_2 == 0``, ``k = 1``): ``sn = tanh``, ``cn = dn = sech`` with
 Near it (``0 < k' << 1``) the elliptic path is used (the Landen chain stays exact and
 ``cn, dn = O(k')`` keep their relative accuracy).
 
-Accuracy: ~1e-15 relative in ``m`` and ~1e-15 in ``q`` for ``|omega t| ~ 10``; beyond
-that the phase error grows as ``|omega t| eps`` (``|lambda tau| eps N`` for the
-reduction modulo ``2K``, ``N`` = Landen depth, ~4 typical, ~9 at ``k' = 1e-8``).
-Near the separatrix the problem itself is ill-conditioned (a relative change ``eps``
-of ``m0`` changes ``k'^2`` by ``eps G^2 / |Delta_2|`` when ``m0`` is far from the
-saddle), and the kernel's error follows that conditioning.
+Accuracy (against a 34-digit mpmath Taylor integration; tests/test_exact_flow.py): the
+error is ~1e-15 (relative to ``|m|`` for ``m``, absolute for ``q`` up to sign) for
+``|omega t| ~ 10`` in every regime above, and grows only as the unavoidable phase
+error ``~|omega t| eps`` (HLW body: 3.6e-15 at ``|omega t| = 136``, 3.4e-14 at 1356).
+The reduction modulo ``2K`` uses ``K = R_F(0, k'^2, 1)`` (1 ulp) whenever
+``|lambda tau| > K``. Near the separatrix the problem itself is ill-conditioned: when
+``m0`` is far from the saddle, a relative change ``eps`` of ``m0`` changes ``k'^2`` by
+``~eps G^2 / |Delta_2|``; the kernel's error follows that conditioning (no worse).
+Cost: ~350-450 ns per :func:`exact_flow` call (3-4 steps of a 5-rotation Strang
+splitting), ~290 ns per output time of :func:`exact_flow_times`.
 """
 
 from __future__ import annotations
@@ -111,7 +115,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .elliptic import carlson_rj, landen_chain, landen_eval
+from .elliptic import carlson_rf, carlson_rj, landen_chain, landen_eval, landen_k
 from .quat import qaxis_rotation, qexp, qmul
 
 #: Relative tolerance under which two moments count as equal (symmetric-body branch).
@@ -119,15 +123,15 @@ from .quat import qaxis_rotation, qexp, qmul
 SYM_RTOL = 4.0 * 2.0**-52
 
 # plan layout -------------------------------------------------------------------------
-# head (38 floats), then the Landen chain: nlev, ks (16), kcs (16)
+# head (39 floats), then the Landen chain: ks (16), kcs (16)
 _KIND, _G, _QW, _QX, _QY, _QZ, _M1, _M2, _M3 = 0, 1, 2, 3, 4, 5, 6, 7, 8
 # kinds
 K_NONE, K_STEADY, K_SYMMETRIC, K_ELLIPTIC, K_SEPARATRIX = 0.0, 1.0, 2.0, 3.0, 4.0
-# elliptic / separatrix slots (9..37); steady: 9..11 = omega; symmetric: 9..11 =
+# elliptic / separatrix slots (9..38); steady: 9..11 = omega; symmetric: 9..11 =
 # m0/I_perp, 12 = symmetry axis, 13 = rate m_s (1/I_s - 1/I_perp)
 (_IP, _I2, _IO, _SP, _EPS, _LAMG, _WP, _CL, _BP, _B2, _BO, _SO, _K2, _KC2, _K, _KC, _N,
- _RN1, _KAPPA, _GAMMA, _S0, _C0, _D0, _PIC, _QP0, _QP1, _QP2, _QP3, _NLEV) = range(9, 38)
-HEAD_SIZE = 38
+ _RN1, _KAPPA, _GAMMA, _S0, _C0, _D0, _PIC, _QP0, _QP1, _QP2, _QP3, _NLEV, _KQ) = range(9, 39)
+HEAD_SIZE = 39
 _KS = HEAD_SIZE
 _KCS = HEAD_SIZE + 16
 #: Length of a plan array (float64).
@@ -138,10 +142,10 @@ PLAN_SIZE = HEAD_SIZE + 32
 def _head(kind, g, qw, qx, qy, qz, m1, m2, m3, a9=0.0, a10=0.0, a11=0.0, a12=0.0, a13=0.0,
           a14=0.0, a15=0.0, a16=0.0, a17=0.0, a18=0.0, a19=0.0, a20=0.0, a21=0.0, a22=0.0,
           a23=0.0, a24=0.0, a25=0.0, a26=0.0, a27=0.0, a28=0.0, a29=0.0, a30=0.0,
-          a31=0.0, a32=0.0, a33=0.0, a34=0.0, a35=0.0, a36=0.0, a37=0.0):
+          a31=0.0, a32=0.0, a33=0.0, a34=0.0, a35=0.0, a36=0.0, a37=0.0, a38=0.0):
     return (kind, g, qw, qx, qy, qz, m1, m2, m3, a9, a10, a11, a12, a13, a14, a15, a16, a17,
             a18, a19, a20, a21, a22, a23, a24, a25, a26, a27, a28, a29, a30, a31, a32, a33,
-            a34, a35, a36, a37)
+            a34, a35, a36, a37, a38)
 
 
 @njit(cache=True)
@@ -170,13 +174,19 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     ``full`` also computes the complete ``Pi(n | k^2)`` (else left NaN and computed on
     demand, only when ``|lambda t| > K``).
     """
-    nlev0, ks, kcs = landen_chain(0.0, 1.0)  # placeholder chain (no levels)
+    _, ks, kcs = landen_chain(0.0, 1.0)  # placeholder chain (no levels)
     amax = max(abs(m1), abs(m2), abs(m3))
     if amax == 0.0:
         return _head(K_NONE, 0.0, qw, qx, qy, qz, m1, m2, m3), ks, kcs
     g = amax * math.sqrt((m1 / amax) ** 2 + (m2 / amax) ** 2 + (m3 / amax) ** 2)
     # along a principal axis (two components exactly zero): steady rotation
-    nz = (m1 != 0.0) + (m2 != 0.0) + (m3 != 0.0)
+    nz = 0  # (explicit count: numpy bools would OR under NUMBA_DISABLE_JIT)
+    if m1 != 0.0:
+        nz += 1
+    if m2 != 0.0:
+        nz += 1
+    if m3 != 0.0:
+        nz += 1
     if nz == 1:
         return _head(K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3), ks, kcs
     imax = max(I1, I2, I3)
@@ -275,13 +285,14 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     gamma = math.sqrt(-n * (1.0 - n) * (k2 - n))
     nlev, ks, kcs = landen_chain(k, kc)
     pic = math.nan
+    kq = math.nan
     if full:
-        _, _, _, _, kq = landen_eval(0.0, k, kc, nlev, ks, kcs)
+        kq = carlson_rf(0.0, kc2, 1.0)
         pic = kq + n / 3.0 * carlson_rj(0.0, kc2, 1.0, 1.0 - n)
     return _head(K_ELLIPTIC, g, qw, qx, qy, qz, m1, m2, m3,
                  float(ipc), float(i2), float(ioc), sp, eps, lam * g, g / Ip, cc / lam,
                  bp, b2, bo, so, k2, kc2, k, kc, n, rn1, kappa, gamma, s0, c0, d0, pic,
-                 qp[0], qp[1], qp[2], qp[3], float(nlev)), ks, kcs
+                 qp[0], qp[1], qp[2], qp[3], float(nlev), kq), ks, kcs
 
 
 @njit(cache=True)
@@ -320,7 +331,13 @@ def _eval(h, ks, kcs, t):
         dl = h[_LAMG] * t
         k2 = h[_K2]
         n = h[_N]
-        s, c, d, j, kq = landen_eval(dl, h[_K], h[_KC], int(h[_NLEV]), ks, kcs)
+        nlev = int(h[_NLEV])
+        kq = h[_KQ]
+        if kq != kq:  # not in the plan: the chain product suffices unless |dl| > K
+            kq = landen_k(h[_K], nlev, ks)
+            if abs(dl) > kq:
+                kq = carlson_rf(0.0, h[_KC2], 1.0)
+        s, c, d, j, kq = landen_eval(dl, h[_K], h[_KC], nlev, ks, kcs, kq)
         vr = dl - 2.0 * j * kq
         s0 = h[_S0]
         c0 = h[_C0]
@@ -363,7 +380,9 @@ def _eval(h, ks, kcs, t):
         sech = 2.0 * e / (1.0 + e * e)
         th = math.tanh(u1)
         dp = (dl + rn * (math.atan(rn * th) - math.atan(rn * math.tanh(u0)))) / (1.0 - n)
-        dpsi = math.atan(rn1 * math.sinh(u1)) - math.atan(rn1 * math.sinh(u0))
+        # (sinh clipped at |u| = 700: atan has saturated to pi/2 to round-off long before)
+        dpsi = (math.atan(rn1 * math.sinh(max(-700.0, min(700.0, u1))))
+                - math.atan(rn1 * math.sinh(max(-700.0, min(700.0, u0)))))
         bp = h[_BP]
         phi = h[_WP] * t - h[_CL] * (dp - bp / rn1 * dpsi)
         return _finish(h, phi, h[_SP] * bp * sech, -h[_B2] * th, h[_SO] * h[_BO] * sech)
@@ -420,8 +439,9 @@ def exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t):
     Notes
     -----
     Formulas, regimes and accuracy: module docstring (literature section 5). Costs
-    about one Landen chain (4-9 ``sqrt``), one ``sin``/``cos`` pair, one Carlson
-    ``R_J``, three ``atan2``, one more ``sin``/``cos`` pair and ~150 flops.
+    one Landen chain (4-9 ``sqrt``), one ``sin``/``cos`` pair, one Carlson ``R_J``,
+    two ``atan2``, one more ``sin``/``cos`` pair and ~200 flops (plus one ``R_F`` and one
+    ``R_J`` when ``|lambda t| > K``); trig only for symmetric bodies.
     """
     h, ks, kcs = _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, False)
     return _eval(h, ks, kcs, t)
@@ -433,12 +453,13 @@ def exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan):
 
     Layout: ``plan[0]`` kind (0 none, 1 steady/spherical, 2 symmetric, 3 elliptic,
     4 separatrix), ``plan[1]`` ``|m|``, ``plan[2:6]`` ``q0``, ``plan[6:9]`` ``m0``;
-    for kinds 3/4 ``plan[9:38]`` = polar/mid/other axis indices, ``s_p``, ``eps``,
+    for kinds 3/4 ``plan[9:39]`` = polar/mid/other caller axis indices, ``s_p``, ``eps``,
     ``lambda G``, ``G/I_p``, ``c/lambda``, ``B_p, B_2, B_o``, ``s_o``, ``k^2, k'^2, k, k'``,
     ``n``, ``sqrt(1-n)``, ``kappa``, ``gamma``, ``(sn, cn, dn)(u0)`` (``u0`` for kind 4),
-    complete ``Pi(n|k^2)``, ``q0 a(m0)`` (4), Landen depth; ``plan[38:54]`` the Landen
-    moduli ``k_1..k_16``, ``plan[54:70]`` ``k'_0..k'_15``. Kind 1: ``plan[9:12]`` =
-    ``omega``; kind 2: ``plan[9:12] = m0/I_perp``, ``plan[12]`` axis, ``plan[13]`` rate.
+    complete ``Pi(n|k^2)``, ``q0 a(m0)`` (4), Landen depth ``N``, ``K(k)``;
+    ``plan[39:55]`` the Landen moduli ``k_1..k_16``, ``plan[55:71]`` ``k'_0..k'_15``
+    (``PLAN_SIZE = 71``). Kind 1: ``plan[9:12] = omega``; kind 2: ``plan[9:12] =
+    m0/I_perp``, ``plan[12]`` symmetry axis, ``plan[13]`` rate ``m_s (1/I_s - 1/I_perp)``.
     """
     h, ks, kcs = _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, True)
     for i in range(HEAD_SIZE):
@@ -451,7 +472,7 @@ def exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan):
 
 @njit(cache=True)
 def exact_flow_eval(plan, t):
-    """State ``(w, x, y, z, m1, m2, m3)`` at time ``t`` from a plan (see :func:`exact_flow_plan`)."""
+    """State ``(w, x, y, z, m1, m2, m3)`` at time ``t`` from a plan (:func:`exact_flow_plan`)."""
     return _eval(plan[:HEAD_SIZE], plan[_KS:_KS + 16], plan[_KCS:_KCS + 16], t)
 
 
@@ -461,7 +482,7 @@ def exact_flow_times(I, q0, m0, t, q_out, m_out):
 
     The constants (case, modulus, Landen chain, ``lambda``, phase, amplitudes, complete
     ``Pi``, frame quaternion) are computed once; each time is then evaluated
-    independently (no accumulation), about 60% of the cost of :func:`exact_flow`.
+    independently (no accumulation), ~70% of the cost of :func:`exact_flow`.
     """
     plan = np.empty(PLAN_SIZE)
     exact_flow_plan(I[0], I[1], I[2], q0[0], q0[1], q0[2], q0[3], m0[0], m0[1], m0[2], plan)
