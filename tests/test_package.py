@@ -29,3 +29,15 @@ def test_demo_runs():
                           text=True, check=False)
     assert proc.returncode == 0, proc.stderr
     assert "Thin disk" in proc.stdout and "Euler angles" in proc.stdout
+
+
+def test_methods_doc_is_the_registry():
+    """docs/methods.md embeds liebody.methods().to_markdown(): docs and code read one truth."""
+    from pathlib import Path
+
+    import liebody
+
+    doc = (Path(__file__).parents[1] / "docs" / "methods.md").read_text()
+    start = doc.index("<!-- methods-table -->") + len("<!-- methods-table -->")
+    end = doc.index("<!-- /methods-table -->")
+    assert doc[start:end].strip() == liebody.methods().to_markdown()

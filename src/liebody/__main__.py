@@ -13,7 +13,14 @@ def main(argv: list[str] | None = None) -> int:
     demo = sub.add_parser("demo", help="a short tour, checked against the reference text")
     demo.add_argument("--plot", metavar="DIR", default=None,
                       help="also write PNG figures to DIR (needs the 'plot' extra)")
+    table = sub.add_parser("methods", help="print the method registry as a table")
+    table.add_argument("--markdown", action="store_true", help="Markdown (as in docs/methods.md)")
     args = parser.parse_args(argv)
+    if args.command == "methods":
+        from liebody import methods
+
+        print(methods().to_markdown() if args.markdown else methods())
+        return 0
     if args.command == "demo":
         from liebody.demo import run
 

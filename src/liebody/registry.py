@@ -72,12 +72,13 @@ class Method:
     order
         Classical order (``math.inf`` for the exact flow).
     symplectic, reversible
-        Symplectic (Lie–Poisson in ``L``) and time-reversible (symmetric).
+        Symplectic (Lie–Poisson in ``L``) and time-reversible (symmetric). On torqued
+        scenes these hold for conservative, orientation-only torques.
     keeps_casimir
-        Keeps ``|L|`` (and, for every method that acts by rotations, spatial ``L``) to
-        round-off.
+        On a free body: keeps ``|L|`` (and, for every method that acts by rotations,
+        spatial ``L``) to round-off.
     keeps_energy
-        Keeps the free-body energy to round-off.
+        On a free body: keeps the energy to round-off.
     scenes
         Scene classes the method can integrate.
     cost
@@ -225,6 +226,13 @@ class MethodTable(tuple):
                  for r in rows]
         lines.insert(1, "  ".join("-" * w for w in widths))
         return "\n".join(lines)
+
+    def to_markdown(self) -> str:
+        """The table in Markdown (``docs/methods.md`` embeds it; a test keeps it current)."""
+        head = "| " + " | ".join(self._cols) + " |"
+        rule = "|" + "---|" * len(self._cols)
+        body = ["| " + " | ".join(r) + " |" for r in self.rows()]
+        return "\n".join([head, rule, *body])
 
     def _repr_pretty_(self, p, cycle):  # pragma: no cover - IPython display
         p.text(str(self))
