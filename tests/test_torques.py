@@ -61,6 +61,7 @@ def reference(scene, q0, L0, t_end):
 # --------------------------------------------------------------------------------- scenes
 
 
+@pytest.mark.kernel
 def test_heavy_top_potential_and_torque_are_consistent():
     """V = M g (R cm).e_z, and the kick torque is minus its derivative under body rotations."""
     top = general_top()
@@ -279,3 +280,28 @@ def test_damped_symmetric_body_and_baselines_agree():
     assert np.abs(runs["rkmk4"].L[-1] - ref).max() < 1e-10
     assert np.abs(runs["lie_euler"].L[-1] - ref).max() < 1e-2
     assert runs["splitting2"].info["free_flow"] == "symmetric"
+
+
+@pytest.mark.kernel
+def test_damping_flow_kernel_keeps_L_and_lowers_energy():
+    """One dissipation sub-step: |m| and R(q) m unchanged, T lower, second order in tau."""
+    from liebody._kernels.torque import damping_flow
+
+    I = (1.0, 2.0, 3.0)
+    q = Q.random(rng=7)
+    m = np.array([0.8, -0.5, 0.3])
+    out = np.array(damping_flow(*q, *m, *I, 0.3, 0.1))
+    q1, m1 = out[:4], out[4:]
+    assert abs(np.linalg.norm(m1) - np.linalg.norm(m)) < 1e-15
+    np.testing.assert_allclose(Q.rotate(q1, m1), Q.rotate(q, m), atol=1e-15)
+    T = lambda v: 0.5 * np.sum(v * v / np.array(I))  # noqa: E731
+    assert T(m1) < T(m)
+    # halving tau twice: local error of the midpoint rule ~ tau^3 against a fine reference
+    def err(tau):
+        fine = np.concatenate([q, m])
+        for _ in range(1000):
+            fine = np.array(damping_flow(*fine[:4], *fine[4:], *I, 0.3, tau / 1000))
+        one = np.array(damping_flow(*q, *m, *I, 0.3, tau))
+        return np.abs(one[4:] - fine[4:]).max()
+
+    assert 6.0 < err(0.2) / err(0.1) < 10.0
