@@ -425,3 +425,13 @@ def test_driver_loop_allocates_nothing(hlw):
     assert irs
     for ir in irs.values():
         assert "define" in ir and not pattern.search(ir)
+
+
+def test_a_billion_steps_keep_only_the_saved_samples(hlw):
+    """1e9 steps saved every 1e6 hold 1001 samples (the exact flow needs no stepping)."""
+    scene, L0 = hlw
+    tr = liebody.integrate(scene, L0=L0, dt=1e-3, steps=10**9, save_every=10**6)
+    assert tr.q.shape == (1001, 4) and tr.L.shape == (1001, 3) and tr.t.shape == (1001,)
+    assert tr.t[-1] == 1e6
+    assert np.abs(tr.energy - tr.energy[0]).max() < 1e-13
+    assert np.abs(tr.L_space - tr.L_space[0]).max() < 1e-12
