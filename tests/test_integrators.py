@@ -96,6 +96,19 @@ def test_modified_hamiltonian_closed_form():
     np.testing.assert_allclose(h3(pieces, m), ref, rtol=1e-12)
 
 
+@pytest.mark.parametrize("moments", [(2.0, 1.0, 2.0 / 3.0), (0.345, 0.653, 1.0), (1.0, 1.0, 2.0)])
+def test_energy_error_constant_is_the_exact_range_on_the_orbit(moments):
+    """The 3-point quadratic range equals dense sampling of H3 over the orbit's segment."""
+    from liebody._modified import energy_error_constant, h3, orbit_samples
+
+    m0 = np.array([1.8, 0.4, -0.9])
+    for order in registry._ORDERINGS:
+        pieces = registry._axis_pieces(np.array(moments), order)
+        dense = h3(pieces, orbit_samples(moments, m0, 4001))
+        assert abs(energy_error_constant(pieces, moments, m0) - np.ptp(dense)) < (
+            1e-6 * np.ptp(dense) + 1e-15)
+
+
 def test_energy_error_matches_modified_hamiltonian_prediction(hlw):
     """max |dT| over a run ~ h^2 * (range of H3 on the orbit) for every ordering."""
     scene, L0 = hlw

@@ -358,23 +358,26 @@ def _sr2_pieces(moments, variant):
 _ORDERINGS = tuple(itertools.permutations(range(3)))
 
 
+def _best(pieces_of, moments, m0) -> tuple[tuple[int, int, int], float]:
+    """The variant (a permutation of the axes) with the smallest energy-error constant."""
+    per_variant = [pieces_of(moments, v) for v in _ORDERINGS]
+    levels = [np.array([p[i] for p in per_variant]) for i in range(len(per_variant[0]))]
+    scores = _modified.energy_error_constants(levels, moments, m0)
+    k = int(np.argmin(scores))
+    return _ORDERINGS[k], float(scores[k])
+
+
 def best_axis_ordering(moments, m0) -> tuple[tuple[int, int, int], float]:
     """The axis ordering ``(a, b, c)`` of ``a-b-c-b-a`` with the smallest energy-error constant.
 
     Returns the ordering and its constant (range of ``H3`` over the orbit of ``m0``).
     """
-    scores = [(_modified.energy_error_constant(_axis_pieces(moments, o), moments, m0), o)
-              for o in _ORDERINGS]
-    score, order = min(scores, key=lambda s: s[0])
-    return order, score
+    return _best(_axis_pieces, moments, m0)
 
 
 def best_sr2_variant(moments, m0) -> tuple[tuple[int, int, int], float]:
     """The SR2 variant with the smallest energy-error constant (0 for a symmetric body)."""
-    scores = [(_modified.energy_error_constant(_sr2_pieces(moments, v), moments, m0), v)
-              for v in _ORDERINGS]
-    score, variant = min(scores, key=lambda s: s[0])
-    return variant, score
+    return _best(_sr2_pieces, moments, m0)
 
 
 def best_base(moments, m0) -> tuple[str, list, dict]:
