@@ -24,11 +24,21 @@ def test_public_names_resolve_lazily():
     assert out.split() == ["liebody._integrate", "MethodTable"]
 
 
-def test_demo_runs():
-    proc = subprocess.run([sys.executable, "-m", "liebody", "demo"], capture_output=True,
-                          text=True, check=False)
+def test_demo_runs_and_agrees_with_the_closed_forms(tmp_path):
+    """The README's first command: every table row's relative difference is small."""
+    import re
+
+    proc = subprocess.run([sys.executable, "-m", "liebody", "demo", "--plot", str(tmp_path)],
+                          capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
-    assert "Thin disk" in proc.stdout and "Euler angles" in proc.stdout
+    for title in ("Chandler wobble", "intermediate axis", "Dzhanibekov", "Lagrange top"):
+        assert title in proc.stdout
+    num = r"[-+]?[0-9.]+(?:e[-+][0-9]+)?"
+    rows = re.findall(rf"^  \S.* {num} +{num} +([0-9.]+e[-+][0-9]+)$", proc.stdout, flags=re.M)
+    assert len(rows) >= 6 and all(float(r) < 1e-5 for r in rows), proc.stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "chandler_wobble.png", "dzhanibekov_flips.png", "intermediate_axis_growth.png",
+        "lagrange_top_cusps.png"]
 
 
 def test_methods_doc_is_the_registry():

@@ -33,6 +33,8 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "TorqueBody": ("liebody.scenes", "TorqueBody"),
     "DampedBody": ("liebody.scenes", "DampedBody"),
     "lagrange_top": ("liebody.lagrange_top", None),
+    "analysis": ("liebody.analysis", None),
+    "bodies": ("liebody.bodies", None),
     "integrate": ("liebody._integrate", "integrate"),
     "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
@@ -42,7 +44,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
 __all__ = sorted(_LAZY) + ["__version__"]
 
 if TYPE_CHECKING:  # pragma: no cover
-    from liebody import euler, inertia, lagrange_top, quaternion  # noqa: F401
+    from liebody import analysis, bodies, euler, inertia, lagrange_top, quaternion  # noqa: F401
     from liebody._integrate import ConvergenceError, integrate  # noqa: F401
     from liebody.body import RigidBody  # noqa: F401
     from liebody.registry import methods  # noqa: F401
