@@ -68,7 +68,7 @@ def test_precession_rate_is_the_linearised_euler_frequency(I, I3, omega3):
     ev = np.linalg.eigvals(J)
     np.testing.assert_allclose(np.sort(np.abs(ev.imag)), [0.0, abs(Omega), abs(Omega)],
                                rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(ev.real, 0.0, atol=1e-12)
+    np.testing.assert_allclose(ev.real, 0.0, atol=1e-12, rtol=0)
     # sense: omega2' = +Omega omega1, i.e. (omega1, omega2) turns counterclockwise about +x3
     # for Omega > 0 (omega1 = c cos(Omega t), omega2 = c sin(Omega t) in the text)
     assert J[1, 0] == pytest.approx(Omega, rel=1e-9)
@@ -137,7 +137,7 @@ def test_omega_decomposition_and_space_precession_rate(I, I3):
         # the symmetry axis moves as dz/dt = omega x z = rate (L_hat x z): a rotation about
         # L_hat at the rate |L| / I, counterclockwise
         np.testing.assert_allclose(np.cross(omega, z), rate * np.cross(L / Lnorm, z),
-                                   atol=1e-13)
+                                   atol=1e-13, rtol=0)
 
 
 # ------------------------------------------------------------------------------------------
@@ -175,7 +175,7 @@ def test_stability_matches_jacobian_eigenvalues_any_order(seed):
             assert role != "intermediate"
             np.testing.assert_allclose(np.sort(np.abs(ev.imag)), [0, res.rate, res.rate],
                                        rtol=1e-8, atol=1e-12)
-            np.testing.assert_allclose(ev.real, 0, atol=1e-9)
+            np.testing.assert_allclose(ev.real, 0, atol=1e-9, rtol=0)
         else:
             assert role == "intermediate"
             np.testing.assert_allclose(np.sort(ev.real), [-res.rate, 0, res.rate],
@@ -285,7 +285,7 @@ def test_dumbbell_torque_text_1_4_1(th):
     N = analysis.steady_rotation_torque([I1, I1, 0.0], w * np.array([math.sin(th), 0.0,
                                                                      math.cos(th)]))
     np.testing.assert_allclose(N, [0.0, w * w * math.sin(th) * math.cos(th) * I1, 0.0],
-                               atol=1e-14)
+                               atol=1e-14, rtol=0)
 
 
 def test_dumbbell_from_point_masses_in_the_tensor_frame():
@@ -294,7 +294,7 @@ def test_dumbbell_from_point_masses_in_the_tensor_frame():
     I = liebody.inertia.tensor([m / 2, m / 2], [[0, 0, l / 2], [0, 0, -l / 2]])
     N = analysis.steady_rotation_torque(I, w * np.array([math.sin(th), 0.0, math.cos(th)]))
     np.testing.assert_allclose(N, [0, w * w * math.sin(th) * math.cos(th) * I[0, 0], 0],
-                               atol=1e-14)
+                               atol=1e-14, rtol=0)
 
 
 def test_torque_is_zero_exactly_along_principal_axes_and_nonzero_otherwise():
@@ -319,14 +319,14 @@ def test_torque_is_minus_the_free_body_rate_and_frame_covariant():
     for omega in rng.normal(size=(10, 3)):
         N = analysis.steady_rotation_torque(moments, omega)
         # a free body has I omega' = -(omega x I omega): the applied torque cancels it
-        np.testing.assert_allclose(N, -moments * euler_rhs(moments, omega), atol=1e-13)
+        np.testing.assert_allclose(N, -moments * euler_rhs(moments, omega), atol=1e-13, rtol=0)
         # the text's component form: N1 = -omega2 omega3 (I2 - I3), cyclically
         I1, I2, I3 = moments
         w1, w2, w3 = omega
         np.testing.assert_allclose(N, [-w2 * w3 * (I2 - I3), -w3 * w1 * (I3 - I1),
-                                       -w1 * w2 * (I1 - I2)], atol=1e-13)
+                                       -w1 * w2 * (I1 - I2)], atol=1e-13, rtol=0)
         N_rot = analysis.steady_rotation_torque(R @ np.diag(moments) @ R.T, R @ omega)
-        np.testing.assert_allclose(N_rot, R @ N, atol=1e-13)
+        np.testing.assert_allclose(N_rot, R @ N, atol=1e-13, rtol=0)
     # vectorised over leading axes
     W = rng.normal(size=(4, 5, 3))
     assert analysis.steady_rotation_torque(moments, W).shape == (4, 5, 3)
@@ -420,8 +420,8 @@ def test_zero_crossings_of_a_sampled_sine():
     exact = exact[exact < t[-1]]
     cubic = analysis.zero_crossings(t, y)
     linear = analysis.zero_crossings(t, y, interpolation="linear")
-    np.testing.assert_allclose(cubic, exact, atol=2e-5)  # measured 8.5e-6
-    np.testing.assert_allclose(linear, exact, atol=1e-3)  # measured 5.0e-4
+    np.testing.assert_allclose(cubic, exact, atol=2e-5, rtol=0)  # measured 8.5e-6
+    np.testing.assert_allclose(linear, exact, atol=1e-3, rtol=0)  # measured 5.0e-4
     up = analysis.zero_crossings(t, y, direction=1)
     down = analysis.zero_crossings(t, y, direction=-1)
     np.testing.assert_allclose(np.sort(np.concatenate([up, down])), cubic)

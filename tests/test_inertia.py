@@ -62,10 +62,11 @@ def test_tensor_products_of_inertia_by_hand():
     m = [1.0, 2.0]
     p = [[1.0, 1.0, 0.0], [0.0, 1.0, 2.0]]
     about_origin = np.array([[11.0, -1.0, 0.0], [-1.0, 9.0, -4.0], [0.0, -4.0, 4.0]])
-    np.testing.assert_allclose(inertia.tensor(m, p, origin=np.zeros(3)), about_origin, atol=1e-14)
+    np.testing.assert_allclose(inertia.tensor(m, p, origin=np.zeros(3)), about_origin, atol=1e-14,
+                               rtol=0)
     # CM = (1/3, 1, 4/3); relative positions (2/3, 0, -4/3), (-1/3, 0, 2/3)
     about_cm = np.array([[8 / 3, 0.0, 4 / 3], [0.0, 10 / 3, 0.0], [4 / 3, 0.0, 2 / 3]])
-    np.testing.assert_allclose(inertia.tensor(m, p), about_cm, atol=1e-14)
+    np.testing.assert_allclose(inertia.tensor(m, p), about_cm, atol=1e-14, rtol=0)
 
 
 def test_tensor_dumbbell_of_section_1_4_1():
@@ -99,7 +100,7 @@ def test_tensor_about_origin_is_parallel_axis_of_central_tensor(cloud, origin):
     about_origin = inertia.tensor(m, p, origin=origin)
     shifted = inertia.parallel_axis(inertia.tensor(m, p), m.sum(), com - origin)
     scale = np.abs(about_origin).max() + 1.0
-    np.testing.assert_allclose(shifted, about_origin, atol=1e-11 * scale)
+    np.testing.assert_allclose(shifted, about_origin, atol=1e-11 * scale, rtol=0)
 
 
 @HYP
@@ -110,8 +111,9 @@ def test_tensor_rotates_as_a_tensor_and_keeps_eigenvalues(cloud, rot):
     I = inertia.tensor(m, p)
     I_rot = inertia.tensor(m, p @ Q.T)
     scale = np.abs(I).max() + 1.0
-    np.testing.assert_allclose(I_rot, Q @ I @ Q.T, atol=1e-11 * scale)
-    np.testing.assert_allclose(np.linalg.eigvalsh(I_rot), np.linalg.eigvalsh(I), atol=1e-11 * scale)
+    np.testing.assert_allclose(I_rot, Q @ I @ Q.T, atol=1e-11 * scale, rtol=0)
+    np.testing.assert_allclose(np.linalg.eigvalsh(I_rot), np.linalg.eigvalsh(I), atol=1e-11 * scale,
+                               rtol=0)
 
 
 @HYP
@@ -120,7 +122,7 @@ def test_central_tensor_is_translation_invariant(cloud, t):
     m, p = cloud
     I = inertia.tensor(m, p)
     scale = np.abs(I).max() + 1.0
-    np.testing.assert_allclose(inertia.tensor(m, p + t), I, atol=1e-11 * scale)
+    np.testing.assert_allclose(inertia.tensor(m, p + t), I, atol=1e-11 * scale, rtol=0)
 
 
 @HYP
@@ -233,10 +235,12 @@ def test_moments_to_tensor_with_matrix_and_quaternion(rot, moments):
     Q = rot.as_matrix()
     q = rot.as_quat(scalar_first=True)
     expected = Q @ np.diag(moments) @ Q.T
-    np.testing.assert_allclose(inertia.moments_to_tensor(moments, Q), expected, atol=1e-13 * 10)
-    np.testing.assert_allclose(inertia.moments_to_tensor(moments, q), expected, atol=1e-13 * 10)
+    np.testing.assert_allclose(inertia.moments_to_tensor(moments, Q), expected, atol=1e-13 * 10,
+                               rtol=0)
+    np.testing.assert_allclose(inertia.moments_to_tensor(moments, q), expected, atol=1e-13 * 10,
+                               rtol=0)
     np.testing.assert_allclose(inertia.rotate_tensor(np.diag(moments), q), expected,
-                               atol=1e-13 * 10)
+                               atol=1e-13 * 10, rtol=0)
 
 
 def test_moments_to_tensor_default_is_diagonal():
@@ -248,7 +252,7 @@ def test_quaternion_convention_rotates_body_to_space():
     # 90 degrees about z: (w, x, y, z) = (cos 45, 0, 0, sin 45) maps x -> y
     q = [np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)]
     I = inertia.rotate_tensor(np.diag([1.0, 2.0, 3.0]), q)
-    np.testing.assert_allclose(I, np.diag([2.0, 1.0, 3.0]), atol=1e-15)
+    np.testing.assert_allclose(I, np.diag([2.0, 1.0, 3.0]), atol=1e-15, rtol=0)
 
 
 @pytest.mark.parametrize(
@@ -411,7 +415,7 @@ def test_solid_matches_numerical_integration(name):
 def test_cone_centre_of_mass_is_a_quarter_height_above_base():
     points, w = _quad_cone(0.7, 2.3)
     com = (w[:, None] * points).sum(axis=0) / w.sum()
-    np.testing.assert_allclose(com, [0.0, 0.0, 2.3 / 4], atol=1e-12)
+    np.testing.assert_allclose(com, [0.0, 0.0, 2.3 / 4], atol=1e-12, rtol=0)
 
 
 def _tplquad_cylindrical(f, h0, h1, r_of_z):
@@ -503,7 +507,7 @@ def test_eight_octant_boxes_make_a_box_off_origin():
         for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)
     ]
     props = inertia.composite(parts)
-    np.testing.assert_allclose(props.center_of_mass, centre, atol=1e-15)
+    np.testing.assert_allclose(props.center_of_mass, centre, atol=1e-15, rtol=0)
     np.testing.assert_allclose(props.inertia, np.diag(inertia.box(M, a, b, c)), rtol=1e-14,
                                atol=1e-14)
 
@@ -525,7 +529,7 @@ def test_rotated_disk_equals_rotated_tensor_and_edge_example():
         props = inertia.composite([Part(M, [1.0, 2.0, 3.0], inertia.thin_disk(M, R), orientation)])
         assert props.mass == M
         np.testing.assert_array_equal(props.center_of_mass, [1.0, 2.0, 3.0])
-        np.testing.assert_allclose(props.inertia, expected, atol=1e-14)
+        np.testing.assert_allclose(props.inertia, expected, atol=1e-14, rtol=0)
     # unrotated: the text's edge example through MassProperties.about
     props = inertia.composite([Part(M, [1.0, 2.0, 3.0], inertia.thin_disk(M, R))])
     assert props.about([1.0 + R, 2.0, 3.0])[2, 2] == 27.0
@@ -537,9 +541,9 @@ def test_composite_of_point_masses_equals_tensor(cloud):
     m, p = cloud
     props = inertia.composite([Part(mi, pi) for mi, pi in zip(m, p, strict=True)])
     assert props.mass == pytest.approx(m.sum(), rel=1e-15)
-    np.testing.assert_allclose(props.center_of_mass, m @ p / m.sum(), atol=1e-12)
+    np.testing.assert_allclose(props.center_of_mass, m @ p / m.sum(), atol=1e-12, rtol=0)
     ref = inertia.tensor(m, p)
-    np.testing.assert_allclose(props.inertia, ref, atol=1e-11 * (np.abs(ref).max() + 1))
+    np.testing.assert_allclose(props.inertia, ref, atol=1e-11 * (np.abs(ref).max() + 1), rtol=0)
 
 
 def test_dumbbell_of_two_balls_closed_form():
@@ -568,8 +572,8 @@ def test_rocket_cylinder_plus_cone_matches_quadrature():
     points = tilt.apply(np.r_[pc + [0, 0, H / 2], pk + [0, 0, H]])
     M, com, I = central_tensor_reference(points, rho * np.r_[wc, wk])
     assert props.mass == pytest.approx(M, rel=1e-12)
-    np.testing.assert_allclose(props.center_of_mass, com, atol=1e-12)
-    np.testing.assert_allclose(props.inertia, I, atol=1e-10 * np.abs(I).max())
+    np.testing.assert_allclose(props.center_of_mass, com, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(props.inertia, I, atol=1e-10 * np.abs(I).max(), rtol=0)
 
 
 @HYP
@@ -582,15 +586,15 @@ def test_composite_is_covariant_under_rigid_motions(cloud, rot, t):
     moved = [Part(pt.mass, Q @ pt.position + t, pt.inertia, Q @ pt.orientation) for pt in parts]
     a, b = inertia.composite(parts), inertia.composite(moved)
     scale = np.abs(a.inertia).max()
-    np.testing.assert_allclose(b.center_of_mass, Q @ a.center_of_mass + t, atol=1e-11 * 10)
-    np.testing.assert_allclose(b.inertia, Q @ a.inertia @ Q.T, atol=1e-11 * scale)
+    np.testing.assert_allclose(b.center_of_mass, Q @ a.center_of_mass + t, atol=1e-11 * 10, rtol=0)
+    np.testing.assert_allclose(b.inertia, Q @ a.inertia @ Q.T, atol=1e-11 * scale, rtol=0)
 
 
 def test_composite_accepts_a_generator_and_tensor_inertia():
     Q = Rotation.from_rotvec([1.0, 0.0, 0.0]).as_matrix()
     T = Q @ np.diag([1.0, 2.0, 3.0]) @ Q.T
     props = inertia.composite(Part(1.0, [0.0, 0.0, 0.0], T) for _ in range(2))
-    np.testing.assert_allclose(props.inertia, 2 * T, atol=1e-15)
+    np.testing.assert_allclose(props.inertia, 2 * T, atol=1e-15, rtol=0)
 
 
 @pytest.mark.parametrize(

@@ -185,7 +185,7 @@ def test_symmetric_methods_are_time_reversible(name, hlw):
     q0 = liebody.quaternion.random(rng=3)
     fwd, _, _ = _kernel_run(name, scene, L0, 0.1, 7, q0=q0)
     back, _, _ = _kernel_run(name, scene, fwd[4:], -0.1, 7, q0=fwd[:4])
-    np.testing.assert_allclose(back[4:], L0, atol=1e-14)
+    np.testing.assert_allclose(back[4:], L0, atol=1e-14, rtol=0)
     assert rotation_distance(back[:4], q0) < 1e-14
 
 
@@ -245,8 +245,8 @@ def test_long_run_invariants_geometric(name, hlw):
     # a step whose energy error is well above round-off, so boundedness is a method property
     h = 0.05 if method.keeps_energy else {2: 0.05, 4: 0.2, 6: 0.4, 8: 0.6}[method.order]
     tr = liebody.integrate(scene, L0=L0, dt=h, steps=n, method=name, save_every=1000)
-    np.testing.assert_allclose(tr.casimir, 1.0, atol=1e-12)
-    np.testing.assert_allclose(tr.quaternion_norm, 1.0, atol=1e-12)
+    np.testing.assert_allclose(tr.casimir, 1.0, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(tr.quaternion_norm, 1.0, atol=1e-12, rtol=0)
     Ls = tr.L_space
     assert np.abs(Ls - Ls[0]).max() < 1e-12
     dE = np.abs(tr.energy - tr.energy[0])
@@ -315,8 +315,11 @@ def test_save_every_memory_and_times(hlw):
     assert tr.q.shape == (12, 4) and tr.L.shape == (12, 3)
     np.testing.assert_allclose(tr.t, np.r_[np.arange(11) * 1.0, 10.03])
     full = liebody.integrate(scene, L0=L0, dt=0.01, steps=1003, method="splitting2")
-    # merged end stages are undone at save points: same samples as saving every step
-    np.testing.assert_allclose(tr.L, full.L[np.r_[np.arange(11) * 100, 1003]], atol=1e-15)
+    # merged end stages are undone at save points: the same samples as saving every step,
+    # up to the rounding of merged angles accumulated over 1000 steps (an error in the
+    # bookkeeping would show at the size of the h^2 splitting error, ~1e-5)
+    np.testing.assert_allclose(tr.L, full.L[np.r_[np.arange(11) * 100, 1003]], atol=1e-13,
+                               rtol=0)
 
 
 def test_progress_runs_in_chunks_with_identical_result(hlw):
@@ -324,8 +327,8 @@ def test_progress_runs_in_chunks_with_identical_result(hlw):
     a = liebody.integrate(scene, L0=L0, dt=0.01, steps=5000, save_every=7, method="sr2")
     b = liebody.integrate(scene, L0=L0, dt=0.01, steps=5000, save_every=7, method="sr2",
                           progress=True)
-    np.testing.assert_allclose(a.L, b.L, atol=1e-15)
-    np.testing.assert_allclose(a.q, b.q, atol=1e-15)
+    np.testing.assert_allclose(a.L, b.L, atol=1e-15, rtol=0)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-15, rtol=0)
 
 
 def test_omega0_and_L0_agree(physical):
@@ -333,8 +336,8 @@ def test_omega0_and_L0_agree(physical):
     a = liebody.integrate(scene, L0=L0, dt=0.1, steps=10, method="splitting2")
     b = liebody.integrate(scene, omega0=L0 / scene.moments, dt=0.1, steps=10,
                           method="splitting2")
-    np.testing.assert_allclose(a.L, b.L, atol=1e-15)
-    np.testing.assert_allclose(a.omega * scene.moments, a.L, atol=1e-15)
+    np.testing.assert_allclose(a.L, b.L, atol=1e-15, rtol=0)
+    np.testing.assert_allclose(a.omega * scene.moments, a.L, atol=1e-15, rtol=0)
 
 
 def test_default_method_is_exact_for_free_body(hlw):

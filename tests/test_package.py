@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 
 def _python(code: str) -> str:
     return subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
@@ -24,21 +26,32 @@ def test_public_names_resolve_lazily():
     assert out.split() == ["liebody._integrate", "MethodTable"]
 
 
-def test_demo_runs_and_agrees_with_the_closed_forms(tmp_path):
+def _demo(*args: str) -> str:
+    proc = subprocess.run([sys.executable, "-m", "liebody", "demo", *args],
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc.stdout
+
+
+def test_demo_runs_and_agrees_with_the_closed_forms():
     """The README's first command: every table row's relative difference is small."""
     import re
 
-    proc = subprocess.run([sys.executable, "-m", "liebody", "demo", "--plot", str(tmp_path)],
-                          capture_output=True, text=True, check=False)
-    assert proc.returncode == 0, proc.stderr
+    out = _demo()
     for title in ("Chandler wobble", "intermediate axis", "Dzhanibekov", "Lagrange top"):
-        assert title in proc.stdout
+        assert title in out
     num = r"[-+]?[0-9.]+(?:e[-+][0-9]+)?"
-    rows = re.findall(rf"^  \S.* {num} +{num} +([0-9.]+e[-+][0-9]+)$", proc.stdout, flags=re.M)
-    assert len(rows) >= 6 and all(float(r) < 1e-5 for r in rows), proc.stdout
+    rows = re.findall(rf"^  \S.* {num} +{num} +([0-9.]+e[-+][0-9]+)$", out, flags=re.M)
+    assert len(rows) >= 6 and all(float(r) < 1e-5 for r in rows), out
+
+
+def test_demo_writes_the_figures(tmp_path):
+    pytest.importorskip("matplotlib")
+    _demo("--plot", str(tmp_path))
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "chandler_wobble.png", "dzhanibekov_flips.png", "intermediate_axis_growth.png",
         "lagrange_top_cusps.png"]
+    assert all(p.stat().st_size > 10_000 for p in tmp_path.iterdir())
 
 
 def test_methods_doc_is_the_registry():

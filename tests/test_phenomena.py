@@ -283,7 +283,8 @@ def test_body_and_space_cones(shape, method):
     predicted = analysis.space_precession_rate(I, L_norm)
     assert relative_error(analysis.measured_space_precession_rate(traj), predicted) < 1e-9
     # ... and so does the figure axis: angle(z_space, L) = theta throughout
-    np.testing.assert_allclose(angles_between(z_space, traj.L_space), cones.theta, atol=1e-12)
+    np.testing.assert_allclose(angles_between(z_space, traj.L_space), cones.theta, atol=1e-12,
+                               rtol=0)
 
 
 # ------------------------------------------------------------------------------------------

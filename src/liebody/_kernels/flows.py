@@ -16,7 +16,7 @@ import math
 
 from numba import njit
 
-from liebody._kernels.quat import qaxis_rotation, qexp, qmul, qrotate_inv
+from liebody._kernels.quat import qaxis_rotation, qexp, qmul, qrotate_inv, qunit_increment
 from liebody._kernels.torque import TORQUE_NONE, damping_rate, torque_value
 
 #: DMV iteration limits
@@ -62,7 +62,7 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     is the exact flow of a symmetric body (literature section 1.3, "SR2").
     """
     a = tau * rate
-    ew, ex, ey, ez = qexp(a * m1, a * m2, a * m3)
+    ew, ex, ey, ez = qunit_increment(*qexp(a * m1, a * m2, a * m3))
     w, x, y, z = qmul(w, x, y, z, ew, ex, ey, ez)
     return w, x, y, z, m1, m2, m3
 
@@ -153,7 +153,7 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     # the increment (1, c)/sqrt(alpha) applied to q, and its inverse rotation to m, so that
     # R(q) m is updated as one rotation and its inverse (spatial L kept to round-off)
     n = math.sqrt(alpha)
-    uw, ux, uy, uz = 1.0 / n, c1 / n, c2 / n, c3 / n
+    uw, ux, uy, uz = qunit_increment(1.0 / n, c1 / n, c2 / n, c3 / n)
     w, x, y, z = qmul(w, x, y, z, uw, ux, uy, uz)
     m1, m2, m3 = qrotate_inv(uw, ux, uy, uz, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, it
