@@ -50,7 +50,7 @@ def measure(scene, L0, name, h, t_end):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="error against cost, every method")
     parser.add_argument("--body", choices=sorted(BODIES), default="hlw")
-    parser.add_argument("--t-end", type=float, default=10.0)
+    parser.add_argument("--t-end", type=float, default=100.0)
     parser.add_argument("--plot", metavar="FILE", default=None)
     args = parser.parse_args(argv)
     moments, L0 = BODIES[args.body]
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         if m.family == "exact":
             continue
         rows = []
-        for h in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625):
+        for h in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625, 0.003125):
             if m.family == "baseline" and m.order == 1 and h > 0.05:
                 continue
             t, err, dE = measure(scene, L0, m.name, h, args.t_end)
@@ -81,12 +81,13 @@ def main(argv: list[str] | None = None) -> int:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(8, 6))
-        for name, rows in results.items():
+        colors = plt.get_cmap("tab20").colors
+        for k, (name, rows) in enumerate(results.items()):
             r = np.array(rows)
             fam = liebody.methods()[name].family
             style = "--" if fam == "baseline" else "-"
             ax.loglog(r[:, 1], np.maximum(r[:, 2], 1e-16), style, marker="o", ms=3,
-                      label=name)
+                      color=colors[(2 * k) % 20 + (k >= 10)], label=name)
         ax.set_xlabel("wall time per run [s]")
         ax.set_ylabel(f"final error at t = {args.t_end:g} (max of |dL|/|L|, |dq|)")
         ax.set_title(f"Work-precision, free rigid body ({args.body}: I = "

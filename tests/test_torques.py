@@ -144,15 +144,32 @@ def test_lagrange_top_momenta_kept_to_round_off():
     assert np.abs(Lz - Lz[0]).max() < 1e-12 * np.linalg.norm(tr.L[0])
 
 
-def test_general_heavy_top_keeps_space_Lz():
-    """Gravity exerts no torque about the vertical: L_z (space) is conserved for any body."""
-    top = general_top()
+@pytest.mark.parametrize(("free_flow", "kind"), [("auto", "axes"), ("exact", "elliptic")])
+def test_general_heavy_top_keeps_space_Lz(free_flow, kind):
+    """Gravity exerts no torque about the vertical: L_z (space) is conserved for any body,
+    whichever free flow drifts the splitting."""
+    base = general_top()
+    top = liebody.HeavyTop(base.body, base.mass, base.cm, base.g, free_flow=free_flow)
     tr = liebody.integrate(top, q0=Q.random(rng=5), L0=[0.5, -1.0, 2.0], dt=0.005,
                            steps=5000, save_every=5)
-    assert tr.info["free_flow"] == "elliptic"
+    assert tr.info["free_flow"].startswith(kind)
     Lz = tr.L_space[:, 2]
     assert np.abs(Lz - Lz[0]).max() < 1e-11
     assert np.abs(tr.energy - tr.energy[0]).max() < 1e-4 * abs(tr.energy[0])
+
+
+def test_free_flow_choice_is_validated_and_symmetric_bodies_stay_exact():
+    with pytest.raises(ValueError, match="free_flow must be one of"):
+        liebody.HeavyTop(liebody.RigidBody([1.0, 2.0, 3.0]), 1.0, [0, 0, 1.0],
+                         free_flow="rk4")
+    top = liebody.HeavyTop(fast_top().body, 20.0, [0, 0, 1.0], g=1.0, free_flow="axes")
+    tr = liebody.integrate(top, q0=FAST_Q0, omega0=FAST_W0, dt=0.009, steps=10)
+    assert tr.info["free_flow"].startswith("axes")
+    # nearly (1e-12) but not exactly symmetric: the exact symmetric flow is not used
+    near = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0 * (1 + 1e-12), 1.0]), 20.0,
+                            [0, 0, 1.0], g=1.0)
+    tr = liebody.integrate(near, q0=FAST_Q0, omega0=FAST_W0, dt=0.009, steps=10)
+    assert tr.info["free_flow"].startswith("axes")
 
 
 @pytest.mark.long
@@ -305,3 +322,56 @@ def test_damping_flow_kernel_keeps_L_and_lowers_energy():
         return np.abs(one[4:] - fine[4:]).max()
 
     assert 6.0 < err(0.2) / err(0.1) < 10.0
+
+
+@njit
+def _l_dependent(t, q, L):
+    """A torque that depends on L (and q): friction-like plus a gyroscopic coupling."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return np.array([-0.3 * L[0] + 0.2 * L[1] * L[2], 0.1 * L[2] + 0.05 * (w * x + y * z),
+                     -0.2 * L[1]])
+
+
+def _reference_user(scene, q0, L0, t_end, torque):
+    I = scene.body.moments
+
+    def rhs(t, y):
+        q, L = y[:4], y[4:]
+        om = L / I
+        dq = 0.5 * np.array(Q.multiply(q, np.r_[0.0, om]))
+        return np.concatenate([dq, np.cross(L, om) + torque.py_func(t, q, L)])
+
+    sol = solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, L0]), method="DOP853",
+                    rtol=1e-13, atol=1e-13)
+    return sol.y[:4, -1], sol.y[4:, -1]
+
+
+@pytest.mark.parametrize("name", ["splitting2", "splitting4", "rattle", "rk4", "rkmk4"])
+def test_orders_with_an_L_dependent_torque(name):
+    """The explicit/implicit kick pair keeps the splittings symmetric: full order."""
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]), _l_dependent)
+    q0, L0, t_end = Q.random(rng=4), np.array([0.5, -1.0, 1.2]), 2.0
+    qr, Lr = _reference_user(scene, q0, L0, t_end, _l_dependent)
+    order = liebody.methods()[name].order
+    hs = np.array([0.1, 0.05, 0.025]) if order == 2 else np.array([0.2, 0.1, 0.05])
+    errs = []
+    for h in hs:
+        n = round(t_end / h)
+        tr = liebody.integrate(scene, q0=q0, L0=L0, dt=t_end / n, steps=n, method=name)
+        dq = min(np.abs(tr.q[-1] - qr).max(), np.abs(tr.q[-1] + qr).max())
+        errs.append(max(np.abs(tr.L[-1] - Lr).max(), dq))
+    slopes = np.diff(np.log(errs)) / np.diff(np.log(hs))
+    assert min(errs) > 1e-11
+    assert abs(slopes[-1] - order) < 0.3, (errs, slopes)
+
+
+def test_orientation_only_promise_merges_exact_kicks():
+    tb = liebody.TorqueBody(liebody.RigidBody([5.0, 5.0, 1.0]), _gravity_user,
+                            orientation_only=True)
+    a = liebody.integrate(tb, q0=FAST_Q0, omega0=FAST_W0, dt=0.009, steps=500)
+    b = liebody.integrate(fast_top(), q0=FAST_Q0, omega0=FAST_W0, dt=0.009, steps=500)
+    np.testing.assert_allclose(a.L, b.L, atol=1e-12, rtol=0)
+    assert "kicks" not in a.info
+    with pytest.raises(TypeError, match="orientation_only must be True or False"):
+        liebody.TorqueBody(liebody.RigidBody([5.0, 5.0, 1.0]), _gravity_user,
+                           orientation_only="yes")

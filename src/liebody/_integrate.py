@@ -30,6 +30,8 @@ __all__ = ["ConvergenceError", "integrate"]
 
 _SCENES = (FreeBody, HeavyTop, TorqueBody, DampedBody)
 _PROGRESS_CHUNKS = 200
+#: the most samples a run may keep (about 56 GB); beyond it save_every must grow
+MAX_SAMPLES = 10**9
 
 
 class ConvergenceError(RuntimeError):
@@ -113,6 +115,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     dt = as_positive_float("dt", dt)
     n_steps = _step_count(dt, steps, t_end)
     save_every = as_positive_int("save_every", save_every)
+    if not isinstance(progress, bool | np.bool_):
+        raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
 
     method = _registry.get(scene.default_method if method is None else method)
     if not method.supports(scene):
@@ -121,6 +125,10 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
 
     # sample indices: 0, save_every, 2 save_every, ..., and the final step
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
+    if n_saves > MAX_SAMPLES:
+        raise ValueError(
+            f"the run would save {n_saves + 1} samples ({56 * (n_saves + 1) / 1e9:.1f} GB): "
+            f"more than {MAX_SAMPLES}; raise save_every (steps = {n_steps}, dt = {dt:g})")
     q_out = np.empty((n_saves + 1, 4))
     m_out = np.empty((n_saves + 1, 3))
     q_out[0], m_out[0] = q_init, m_init
@@ -130,8 +138,16 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     if method.family == "exact":
         from liebody._kernels.exact import exact_flow_times
 
-        exact_flow_times(np.ascontiguousarray(body.moments, dtype=np.float64), q_init, m_init,
-                         t, q_out, m_out)
+        moments = np.ascontiguousarray(body.moments, dtype=np.float64)
+        if not progress:
+            exact_flow_times(moments, q_init, m_init, t, q_out, m_out)
+        else:
+            from tqdm.auto import tqdm
+
+            chunk = max(1, math.ceil(len(t) / _PROGRESS_CHUNKS))
+            for start in tqdm(range(0, len(t), chunk), unit="chunk"):
+                sl = slice(start, start + chunk)
+                exact_flow_times(moments, q_init, m_init, t[sl], q_out[sl], m_out[sl])
         return Trajectory(t, q_out, m_out, scene, method, dt)
 
     plan = _registry.plan(method, scene, m_init, dt)

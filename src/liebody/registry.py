@@ -431,22 +431,33 @@ _BASELINE_KIND = {"euler": _drv.STAGE_EULER, "rk4": _drv.STAGE_RK4,
                   "lie_euler": _drv.STAGE_LIE_EULER, "rkmk4": _drv.STAGE_RKMK4}
 
 
-def free_flow_stages(body) -> tuple[list[Stage], str]:
-    """The exact free flow of a body as stages, cheapest form first.
+def free_flow_stages(body, m0, choice: str = "auto") -> tuple[list[Stage], str]:
+    """The free flow used as the drift of the splittings of torqued scenes.
 
-    A spherical body: one sphere rotation; a symmetric body: sphere rotation plus a
-    rotation about the symmetry axis (trig functions only); otherwise the elliptic
-    exact flow. Used as the drift of the splittings of torqued scenes.
+    * a spherical or symmetric body (moments equal to within the exact-flow kernel's
+      ``SYM_RTOL``, a few ulps): its exact flow, a sphere rotation plus a rotation about
+      the symmetry axis (trig functions only, about as cheap as one splitting step);
+    * otherwise, with ``choice="auto"`` or ``"axes"``: the 5-rotation splitting with the
+      axis ordering best for the orbit of ``m0`` (the cheapest drift that keeps the
+      invariants); with ``choice="exact"``: the elliptic exact flow (about 4x dearer,
+      no splitting error in the free part).
     """
+    from liebody._kernels.exact import SYM_RTOL
+
     I = tuple(float(v) for v in body.moments)
-    if body.is_spherical:
+    top = max(I)
+    close = [abs(I[i] - I[j]) <= SYM_RTOL * top for i, j in ((1, 2), (2, 0), (0, 1))]
+    if all(close):
         return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (3.0 / sum(I),), clock=1.0)], "sphere"
-    if body.is_symmetric:
-        c = body.symmetry_axis
-        a = (c + 1) % 3
-        return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (1.0 / I[a],), clock=1.0),
-                _stage(_drv.STAGE_AXIS, c, 1.0, (1.0 / I[c] - 1.0 / I[a],))], "symmetric"
-    return [_stage(_drv.STAGE_EXACT, 0, 1.0, I, clock=1.0)], "elliptic"
+    if any(close) and choice != "axes":
+        c = close.index(True)  # the pair (c+1, c+2) is equal: c is the symmetry axis
+        i_perp = 0.5 * (I[(c + 1) % 3] + I[(c + 2) % 3])
+        return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (1.0 / i_perp,), clock=1.0),
+                _stage(_drv.STAGE_AXIS, c, 1.0, (1.0 / I[c] - 1.0 / i_perp,))], "symmetric"
+    if choice == "exact":
+        return [_stage(_drv.STAGE_EXACT, 0, 1.0, I, clock=1.0)], "elliptic"
+    order, _ = best_axis_ordering(I, m0)
+    return _axis_stages(I, order), f"axes {order}"
 
 
 def plan(method: Method, scene, m0, h: float) -> Plan:
@@ -463,16 +474,22 @@ def plan(method: Method, scene, m0, h: float) -> Plan:
     if type(scene).__name__ == "FreeBody":
         return _plan_free(method, moments, m0, h)
 
-    free, free_kind = free_flow_stages(body)
+    free, free_kind = free_flow_stages(body, m0, scene.free_flow)
     info = {"free_flow": free_kind}
     if eps != 0.0:  # dissipation: D(h/2) F(h) D(h/2)
         side = _stage(_drv.STAGE_DAMP, 0, 0.5, (*moments, eps))
     else:  # torque kicks: K(h/2) F(h) K(h/2)
         side = _stage(_drv.STAGE_KICK, 0, 0.5, (float(torque_kind), *c))
+    closing = side
+    if not scene.orientation_only_torque():
+        # the explicit kick is not symmetric when the torque depends on L: close the step
+        # with its adjoint (implicit) kick so the base method stays symmetric, order 2
+        closing = _stage(_drv.STAGE_KICK_IMPLICIT, 0, 0.5, (float(torque_kind), *c))
+        info["kicks"] = "explicit/implicit (L-dependent torque)"
     if name == "rattle":
         free = [_stage(_drv.STAGE_DMV, 0, 1.0, moments, clock=1.0)]
-        info = {"free_flow": "dmv"}
-    base = [side, *free, side]
+        info["free_flow"] = "dmv"
+    base = [side, *free, closing]
     if method.family == "composition":
         return _table(compose(base, method.coefficients), info=info)
     if name in ("splitting2", "rattle"):
@@ -498,6 +515,11 @@ def _plan_free(method: Method, moments, m0, h: float) -> Plan:
         return _table([_stage(_drv.STAGE_DMV, 0, 1.0, moments, clock=1.0)], merge=False)
     if name in ("dmv4", "dmv6"):
         mod = _dmv_modified_moments(moments, m0, h, method.order)
+        if not all(np.isfinite(v) and v > 0.0 for v in mod):
+            raise ValueError(
+                f"dt = {h:g} is too large for {name}: its modified moments "
+                f"{tuple(round(v, 6) for v in mod)} are not all positive (the h^2 and h^4 "
+                f"corrections of Hairer-Vilmart's series dominate); reduce dt")
         return _table([_stage(_drv.STAGE_DMV, 0, 1.0, mod, clock=1.0)], merge=False,
                       info={"modified_moments": mod})
     if name == "exact":

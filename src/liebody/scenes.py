@@ -37,6 +37,7 @@ class FreeBody:
                 f"body must be a liebody.RigidBody, got {type(self.body).__name__}")
 
     default_method = "exact"
+    free_flow = "auto"
 
     @property
     def moments(self) -> np.ndarray:
@@ -52,6 +53,10 @@ class FreeBody:
 
     def damping_parameter(self) -> float:
         return 0.0
+
+    def orientation_only_torque(self) -> bool:
+        """Whether the torque depends on the orientation (and time) only: its kick is exact."""
+        return True
 
     def torque_callback(self):
         """The C callback the driver calls for user torques (a no-op here)."""
@@ -81,11 +86,16 @@ class HeavyTop(FreeBody):
         Centre of mass in the body (principal) frame, measured from the fixed point.
     g
         Gravitational acceleration (> 0).
+    free_flow
+        The drift of the splittings for an asymmetric body: ``"auto"``/``"axes"``, the
+        5-rotation axis splitting (cheapest), or ``"exact"``, the elliptic exact flow
+        (about 4x dearer per step, no splitting error in the free part). A symmetric body
+        always gets its exact flow.
 
-    Default method: ``"splitting2"``, kick(h/2) – exact free flow(h) – kick(h/2): the
-    gravity kick is exact (the torque depends on the orientation only) and the free
-    flow is the exact symmetric-body flow for a Lagrange top (trig functions only), the
-    exact elliptic flow otherwise. Symplectic, time-reversible, energy error bounded,
+    Default method: ``"splitting2"``, kick(h/2) – free flow(h) – kick(h/2): the gravity
+    kick is exact (the torque depends on the orientation only) and the free flow is the
+    exact symmetric-body flow for a Lagrange top (trig functions only), the cheapest
+    (axis) splitting otherwise. Symplectic, time-reversible, energy error bounded,
     ``L_z`` (space) kept to round-off, and for a Lagrange top ``L_3`` (body) too. Known
     failure: step-size resonance when ``h`` times the nutation frequency nears ``2 pi``.
     """
@@ -96,12 +106,11 @@ class HeavyTop(FreeBody):
 
     default_method = "splitting2"
 
-    def __init__(self, body: RigidBody, mass: float, cm, g: float = 9.81) -> None:
-        if not isinstance(body, RigidBody):
-            raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
+    def __init__(self, body: RigidBody, mass: float, cm, g: float = 9.81,
+                 free_flow: str = "auto") -> None:
+        _init_body(self, body, free_flow)
         cm_arr = as_float_array("cm", cm, shape=(3,)).copy()
         cm_arr.flags.writeable = False
-        object.__setattr__(self, "body", body)
         object.__setattr__(self, "mass", as_positive_float("mass", mass))
         object.__setattr__(self, "cm", cm_arr)
         object.__setattr__(self, "g", as_positive_float("g", g))
@@ -141,24 +150,32 @@ class TorqueBody(FreeBody):
         (``(3,)`` array), returning the body-frame torque (3 numbers).
     potential
         Optional ``potential(q) -> float`` for a conservative, orientation-only
-        torque (``torque = Gamma``-style gradient); energy diagnostics then include it.
+        torque; energy diagnostics then include it.
+    orientation_only
+        Promise that the torque does not depend on ``L`` (it may depend on ``t`` and
+        ``q``). Then each kick (``q`` fixed, ``L += dt * torque``) is the exact flow of the
+        torque, and consecutive kicks are merged. Otherwise (the default) a step closes
+        with the adjoint, implicit kick ``L' = L + dt * torque(t, q, L')`` (solved by
+        fixed-point iteration), which keeps the splittings symmetric.
+    free_flow
+        As for :class:`HeavyTop`.
 
-    Guarantees. The splittings apply the torque as a kick with ``q`` fixed, which is
-    the exact flow of the torque when it depends on the orientation (and time) only.
-    Only for a conservative torque that depends on the orientation alone are the
-    splittings and ``rattle`` symplectic with a bounded energy error; for a torque
-    that depends on ``L`` (or dissipates) they are consistent, order-2 methods with no
-    geometric guarantee, and the baselines are as good a choice.
+    Guarantees. The splittings (and their compositions) have their declared order
+    for any smooth torque. Only for a conservative torque that depends on the
+    orientation alone are the splittings and ``rattle`` symplectic with a bounded
+    energy error; for a torque that depends on ``L`` (or dissipates) they are
+    consistent, symmetric methods with no further geometric guarantee.
     """
 
     torque: object
     potential_fn: object
+    orientation_only: bool
 
     default_method = "splitting2"
 
-    def __init__(self, body: RigidBody, torque, potential=None) -> None:
-        if not isinstance(body, RigidBody):
-            raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
+    def __init__(self, body: RigidBody, torque, potential=None,
+                 orientation_only: bool = False, free_flow: str = "auto") -> None:
+        _init_body(self, body, free_flow)
         if not hasattr(torque, "py_func"):
             raise TypeError("torque must be a numba @njit function torque(t, q, L) returning "
                             f"the body-frame torque, got {type(torque).__name__}")
@@ -171,9 +188,14 @@ class TorqueBody(FreeBody):
             raise ValueError(f"torque(t, q, L) must return 3 numbers, got shape {tau.shape}")
         if potential is not None and not callable(potential):
             raise TypeError("potential must be a callable potential(q) -> float or None")
-        object.__setattr__(self, "body", body)
+        if not isinstance(orientation_only, bool):
+            raise TypeError("orientation_only must be True or False")
         object.__setattr__(self, "torque", torque)
         object.__setattr__(self, "potential_fn", potential)
+        object.__setattr__(self, "orientation_only", orientation_only)
+
+    def orientation_only_torque(self) -> bool:
+        return self.orientation_only
 
     def potential(self, q: np.ndarray) -> np.ndarray:
         q = np.asarray(q, dtype=float)
@@ -201,23 +223,34 @@ class DampedBody(FreeBody):
     reference text's spin-stabilised spacecraft (end of "Stability of Axes"; Explorer 1
     started about its long axis and tumbled).
 
-    Default method: ``"splitting2"``, D(h/2) – exact free flow(h) – D(h/2) with a
+    Default method: ``"splitting2"``, D(h/2) – free flow(h) – D(h/2) with a
     second-order Lie-midpoint step D of the dissipative part; ``|L|`` and the spatial
-    ``L`` are kept to round-off.
+    ``L`` are kept to round-off. ``free_flow`` as for :class:`HeavyTop`.
     """
 
     eps: float
 
     default_method = "splitting2"
 
-    def __init__(self, body: RigidBody, eps: float) -> None:
-        if not isinstance(body, RigidBody):
-            raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
-        object.__setattr__(self, "body", body)
+    def __init__(self, body: RigidBody, eps: float, free_flow: str = "auto") -> None:
+        _init_body(self, body, free_flow)
         object.__setattr__(self, "eps", as_positive_float("eps", eps))
 
     def damping_parameter(self) -> float:
         return self.eps
+
+
+_FREE_FLOWS = ("auto", "axes", "exact")
+
+
+def _init_body(scene, body, free_flow: str) -> None:
+    """Shared constructor part of the torqued scenes: the body and the drift choice."""
+    if not isinstance(body, RigidBody):
+        raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
+    if free_flow not in _FREE_FLOWS:
+        raise ValueError(f"free_flow must be one of {_FREE_FLOWS}, got {free_flow!r}")
+    object.__setattr__(scene, "body", body)
+    object.__setattr__(scene, "free_flow", free_flow)
 
 
 _CALLBACKS: dict = {}

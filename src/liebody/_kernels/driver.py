@@ -45,6 +45,7 @@ from liebody._kernels.stages import (
     STAGE_EULER,
     STAGE_EXACT,
     STAGE_KICK,
+    STAGE_KICK_IMPLICIT,
     STAGE_LIE_EULER,
     STAGE_RK4,
     STAGE_SPHERE,
@@ -53,6 +54,8 @@ from liebody._kernels.stages import (
     STATUS_OK,
 )
 from liebody._kernels.torque import damping_flow, torque_value
+
+KICK_MAX_ITERATIONS = 100
 
 MODE_AXES = 0  # every stage an axis rotation (splitting2 and its compositions)
 MODE_ROTATIONS = 1  # axis and sphere rotations (sr2 and its compositions)
@@ -70,6 +73,25 @@ def apply_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
         n1, n2, n3 = torque_value(int(p[0]), p[1], p[2], p[3], t, w, x, y, z, m1, m2, m3,
                                   torque_fn)
         r = (w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3)
+    elif kind == STAGE_KICK_IMPLICIT:
+        # m1' = m + tau torque(t, q, m1'): the adjoint of the explicit kick, so that
+        # explicit kick - free flow - implicit kick is symmetric for L-dependent torques
+        k1, k2, k3 = m1, m2, m3
+        ok = False
+        for _ in range(KICK_MAX_ITERATIONS):
+            n1, n2, n3 = torque_value(int(p[0]), p[1], p[2], p[3], t, w, x, y, z, k1, k2, k3,
+                                      torque_fn)
+            j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
+            d = abs(j1 - k1) + abs(j2 - k2) + abs(j3 - k3)
+            k1, k2, k3 = j1, j2, j3
+            if d <= 8e-16 * (abs(k1) + abs(k2) + abs(k3)) + 1e-300:
+                ok = True
+                break
+            if not (d < 1e300):
+                break
+        if not ok:
+            return w, x, y, z, m1, m2, m3, STATUS_NO_CONVERGENCE
+        r = (w, x, y, z, k1, k2, k3)
     elif kind == STAGE_DMV:
         r8 = dmv_step(w, x, y, z, m1, m2, m3, p[0], p[1], p[2], tau)
         st = STATUS_OK if r8[7] >= 0 else STATUS_NO_CONVERGENCE

@@ -22,6 +22,7 @@ from liebody._kernels.torque import TORQUE_NONE, damping_rate, torque_value
 #: DMV iteration limits
 DMV_MAX_FIXED_POINT = 60
 DMV_MAX_NEWTON = 30
+DMV_CONTINUATION = 32
 
 
 @njit(cache=True)
@@ -77,11 +78,66 @@ def _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3):
 
 
 @njit(cache=True)
+def _dmv_newton(c1, c2, c3, a1, a2, a3, f1, f2, f3):
+    """Damped Newton on the DMV equation from ``c``; returns ``(c, iterations, converged)``.
+
+    Converged when the residual is at rounding level,
+    ``|G|_1 <= 8 eps (|c|_1 + |a|_1 (1 + |c|^2) + |F .* (c_j c_k)|_1)``; a step that does
+    not lower the residual is halved (up to 30 times).
+    """
+    eps8 = 8.0 * 2.220446049250313e-16
+    it = 0
+    g1, g2, g3 = _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3)
+    r = abs(g1) + abs(g2) + abs(g3)
+    for _ in range(DMV_MAX_NEWTON):
+        alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
+        scale = (abs(c1) + abs(c2) + abs(c3) + (abs(a1) + abs(a2) + abs(a3)) * alpha
+                 + abs(f1 * c2 * c3) + abs(f2 * c3 * c1) + abs(f3 * c1 * c2))
+        if r <= eps8 * scale:
+            return c1, c2, c3, it, True
+        it += 1
+        j11 = 1.0 - 2.0 * c1 * a1
+        j12 = -2.0 * c2 * a1 - f1 * c3
+        j13 = -2.0 * c3 * a1 - f1 * c2
+        j21 = -2.0 * c1 * a2 - f2 * c3
+        j22 = 1.0 - 2.0 * c2 * a2
+        j23 = -2.0 * c3 * a2 - f2 * c1
+        j31 = -2.0 * c1 * a3 - f3 * c2
+        j32 = -2.0 * c2 * a3 - f3 * c1
+        j33 = 1.0 - 2.0 * c3 * a3
+        det = (j11 * (j22 * j33 - j23 * j32) - j12 * (j21 * j33 - j23 * j31)
+               + j13 * (j21 * j32 - j22 * j31))
+        if det == 0.0 or not (abs(det) < 1e300):
+            return c1, c2, c3, it, False
+        d1 = (g1 * (j22 * j33 - j23 * j32) - j12 * (g2 * j33 - j23 * g3)
+              + j13 * (g2 * j32 - j22 * g3)) / det
+        d2 = (j11 * (g2 * j33 - j23 * g3) - g1 * (j21 * j33 - j23 * j31)
+              + j13 * (j21 * g3 - g2 * j31)) / det
+        d3 = (j11 * (j22 * g3 - g2 * j32) - j12 * (j21 * g3 - g2 * j31)
+              + g1 * (j21 * j32 - j22 * j31)) / det
+        lam = 1.0
+        for _halving in range(30):
+            n1, n2, n3 = c1 - lam * d1, c2 - lam * d2, c3 - lam * d3
+            h1, h2, h3 = _dmv_residual(n1, n2, n3, a1, a2, a3, f1, f2, f3)
+            rn = abs(h1) + abs(h2) + abs(h3)
+            if rn < r or lam < 1e-8:
+                break
+            lam *= 0.5
+        if not (rn < r):
+            # no decrease even for tiny steps: at rounding level already, or stuck
+            return c1, c2, c3, it, r <= 64.0 * eps8 * scale
+        c1, c2, c3, g1, g2, g3, r = n1, n2, n3, h1, h2, h3, rn
+    return c1, c2, c3, it, False
+
+
+@njit(cache=True)
 def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     """Discrete Moser–Veselov step (= RATTLE on SO(3)) in quaternion form.
 
     Solves ``I c + c x (I c) = (h/2)(1 + |c|^2) m`` for ``c`` (literature section 3.3),
-    by Gauss–Seidel fixed-point iteration to round-off with a Newton fallback, then
+    by Gauss–Seidel fixed-point iteration to round-off, falling back to damped Newton
+    from the last iterate and then to Newton continuation in ``h`` from ``c = 0`` (which
+    follows the physical root; beyond h|omega| of order 1 it may cease to exist), then
     ``q <- q u`` and ``m <- R(u)^T m`` with ``u = (1, c) / sqrt(1 + |c|^2)`` (in exact
     arithmetic the same as the literature's
     ``m <- m + 4/(h alpha) ((I2-I3) c2 c3, (I3-I1) c3 c1, (I1-I2) c1 c2)``, but applied as
@@ -101,9 +157,12 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     c1 = a1 + f1 * a2 * a3
     c2 = a2 + f2 * c1 * a3
     c3 = a3 + f3 * c1 * c2
-    scale = abs(a1) + abs(a2) + abs(a3) + 1e-300
     it = 0
     converged = False
+    # Gauss-Seidel fixed point. Near the solution rounding can make the iterates
+    # alternate between neighbours a few ulps apart, so convergence is declared at
+    # 8 eps relative (the residual is then checked at rounding level below).
+    last1, last2, last3 = c1, c2, c3  # last finite iterate, Newton's start if needed
     while it < DMV_MAX_FIXED_POINT:
         it += 1
         alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
@@ -111,41 +170,26 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
         n2 = alpha * a2 + f2 * n1 * c3
         n3 = alpha * a3 + f3 * n1 * n2
         d = abs(n1 - c1) + abs(n2 - c2) + abs(n3 - c3)
+        if not (d < 1e300) or not (abs(n1) + abs(n2) + abs(n3) < 1e150):
+            break  # diverging (large h|omega|): Newton from the last finite iterate
         c1, c2, c3 = n1, n2, n3
-        if not (d < 1e300):  # diverging (inf/NaN): go to Newton from a fresh start
-            break
-        if d <= 4e-16 * (abs(c1) + abs(c2) + abs(c3)) + 1e-300 * scale:
+        last1, last2, last3 = c1, c2, c3
+        if d <= 8e-16 * (abs(c1) + abs(c2) + abs(c3)) + 1e-300:
             converged = True
             break
     if not converged:
-        # Newton on G(c) = c - alpha a - F .* (c_j c_k) from the explicit guess
-        c1, c2, c3 = a1, a2, a3
-        for _ in range(DMV_MAX_NEWTON):
-            it += 1
-            g1, g2, g3 = _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3)
-            # Jacobian dG/dc
-            j11 = 1.0 - 2.0 * c1 * a1
-            j12 = -2.0 * c2 * a1 - f1 * c3
-            j13 = -2.0 * c3 * a1 - f1 * c2
-            j21 = -2.0 * c1 * a2 - f2 * c3
-            j22 = 1.0 - 2.0 * c2 * a2
-            j23 = -2.0 * c3 * a2 - f2 * c1
-            j31 = -2.0 * c1 * a3 - f3 * c2
-            j32 = -2.0 * c2 * a3 - f3 * c1
-            j33 = 1.0 - 2.0 * c3 * a3
-            det = (j11 * (j22 * j33 - j23 * j32) - j12 * (j21 * j33 - j23 * j31)
-                   + j13 * (j21 * j32 - j22 * j31))
-            if det == 0.0 or not (abs(det) < 1e300):
-                break
-            d1 = (g1 * (j22 * j33 - j23 * j32) - j12 * (g2 * j33 - j23 * g3)
-                  + j13 * (g2 * j32 - j22 * g3)) / det
-            d2 = (j11 * (g2 * j33 - j23 * g3) - g1 * (j21 * j33 - j23 * j31)
-                  + j13 * (j21 * g3 - g2 * j31)) / det
-            d3 = (j11 * (j22 * g3 - g2 * j32) - j12 * (j21 * g3 - g2 * j31)
-                  + g1 * (j21 * j32 - j22 * j31)) / det
-            c1, c2, c3 = c1 - d1, c2 - d2, c3 - d3
-            if abs(d1) + abs(d2) + abs(d3) <= 4e-16 * (abs(c1) + abs(c2) + abs(c3)) + 1e-300:
-                converged = True
+        c1, c2, c3, nit, converged = _dmv_newton(last1, last2, last3, a1, a2, a3, f1, f2, f3)
+        it += nit
+    if not converged:
+        # continuation in the step from c = 0 (h = 0) follows the physical root, which
+        # exists beyond the fixed point's reach (roughly h|omega| > 0.9)
+        c1, c2, c3 = 0.0, 0.0, 0.0
+        for k in range(1, DMV_CONTINUATION + 1):
+            s = k / DMV_CONTINUATION
+            c1, c2, c3, nit, converged = _dmv_newton(c1, c2, c3, s * a1, s * a2, s * a3,
+                                                     f1, f2, f3)
+            it += nit
+            if not converged:
                 break
     if not converged:
         return w, x, y, z, m1, m2, m3, -it
@@ -160,16 +204,22 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
 
 
 @njit(cache=True)
+def _omega_e(m1, m2, m3, I1, I2, I3, eps):
+    o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
+    if eps != 0.0:
+        d1, d2, d3 = damping_rate(m1, m2, m3, I1, I2, I3, eps)
+        o1, o2, o3 = o1 + d1, o2 + d2, o3 + d3
+    return o1, o2, o3
+
+
+@njit(cache=True)
 def _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn):
     """Right-hand side ``(q', m')`` in R^7 (no constraint), with torque and dissipation.
 
     ``omega_e = omega + eps m x omega``; ``q' = q (0, omega_e)/2``;
     ``m' = m x omega_e + tau(t, q, m)``.
     """
-    o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
-    if eps != 0.0:
-        d1, d2, d3 = damping_rate(m1, m2, m3, I1, I2, I3, eps)
-        o1, o2, o3 = o1 + d1, o2 + d2, o3 + d3
+    o1, o2, o3 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
     dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
     n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
     return (dw, dx, dy, dz,
@@ -223,15 +273,6 @@ def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
     n1, n2, n3 = qrotate_inv(ew, ex, ey, ez, m1, m2, m3)
     w, x, y, z = qmul(w, x, y, z, ew, ex, ey, ez)
     return w, x, y, z, n1, n2, n3
-
-
-@njit(cache=True)
-def _omega_e(m1, m2, m3, I1, I2, I3, eps):
-    o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
-    if eps != 0.0:
-        d1, d2, d3 = damping_rate(m1, m2, m3, I1, I2, I3, eps)
-        o1, o2, o3 = o1 + d1, o2 + d2, o3 + d3
-    return o1, o2, o3
 
 
 @njit(cache=True)

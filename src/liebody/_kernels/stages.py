@@ -14,6 +14,7 @@ STATUS_NONFINITE = 1
 STATUS_NO_CONVERGENCE = 2
 STAGE_KICK = 8  # torque kick, q fixed (params = torque kind, c1, c2, c3)
 STAGE_DAMP = 9  # double-bracket dissipation sub-flow (params = moments, eps)
+STAGE_KICK_IMPLICIT = 10  # adjoint (implicit Euler) kick for torques that depend on L
 
 #: width of the per-stage parameter rows
 N_PARAMS = 8
