@@ -12,6 +12,7 @@ Literature: ``../shared/theory/integrators-literature.md`` sections 1–7, 11.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Iterator
@@ -359,7 +360,18 @@ _ORDERINGS = tuple(itertools.permutations(range(3)))
 
 
 def _best(pieces_of, moments, m0) -> tuple[tuple[int, int, int], float]:
-    """The variant (a permutation of the axes) with the smallest energy-error constant."""
+    """The variant (a permutation of the axes) with the smallest energy-error constant.
+
+    Cached on (splitting family, moments, m0^2): the orbit, hence the choice, depends on
+    nothing else, and repeated runs from one initial state skip the set-up.
+    """
+    return _best_cached(pieces_of, tuple(float(v) for v in moments),
+                        tuple(float(v) ** 2 for v in m0))
+
+
+@functools.lru_cache(maxsize=256)
+def _best_cached(pieces_of, moments, u0) -> tuple[tuple[int, int, int], float]:
+    m0 = np.sqrt(np.array(u0))
     per_variant = [pieces_of(moments, v) for v in _ORDERINGS]
     levels = [np.array([p[i] for p in per_variant]) for i in range(len(per_variant[0]))]
     scores = _modified.energy_error_constants(levels, moments, m0)
