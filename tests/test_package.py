@@ -64,3 +64,13 @@ def test_methods_doc_is_the_registry():
     start = doc.index("<!-- methods-table -->") + len("<!-- methods-table -->")
     end = doc.index("<!-- /methods-table -->")
     assert doc[start:end].strip() == liebody.methods().to_markdown()
+
+
+def test_readme_example_runs():
+    """The README's 'A first look' code block runs as written."""
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    block = re.search(r"## A first look\n\n```python\n(.*?)```", readme, re.S).group(1)
+    exec(compile(block, "README.md", "exec"), {})
