@@ -279,8 +279,10 @@ def test_damped_body_ends_spinning_about_its_major_axis():
     assert abs(abs(tr.L[-1, 2]) - G) < 1e-4 * G
     np.testing.assert_allclose(tr.energy[-1], G**2 / (2 * 3.0), rtol=1e-4)
     assert np.all(np.diff(tr.energy) < 0)
-    assert np.abs(tr.casimir - G).max() < 1e-11 * G
-    assert np.abs(tr.L_space - tr.L_space[0]).max() < 1e-11 * G
+    # round-off only: every sub-step is a rotation of L (axis-splitting drift, the default)
+    assert tr.info["free_flow"].startswith("axes")
+    assert np.abs(tr.casimir - G).max() < 1e-13 * G
+    assert np.abs(tr.L_space - tr.L_space[0]).max() < 1e-13 * G
 
 
 def test_damped_symmetric_body_and_baselines_agree():
