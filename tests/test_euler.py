@@ -548,3 +548,15 @@ def test_python_scalars_and_lists_accepted():
     assert E.rates([0, 1, 0], [1, 0, 0]).shape == (3,)
     assert E.from_matrix(np.eye(3).tolist()).shape == (3,)
     assert E.unwrap([[0, 1, 0], [3, 1, -3]]).shape == (2, 3)
+
+
+def test_rotation_angle_accepts_the_texts_three_arguments():
+    phi, theta, psi = np.array([0.3, -2.0]), 1.1, np.array([0.7, 2.9])
+    stacked = np.stack(np.broadcast_arrays(phi, theta, psi), axis=-1)
+    np.testing.assert_array_equal(E.rotation_angle(phi, theta, psi), E.rotation_angle(stacked))
+    np.testing.assert_array_equal(E.rotation_axis(phi, theta, psi), E.rotation_axis(stacked))
+    # the trace relation, directly in the text's form
+    Phi = E.rotation_angle(0.3, 1.1, 0.7)
+    assert abs(abs(np.cos(Phi / 2)) - abs(np.cos((0.3 + 0.7) / 2) * np.cos(1.1 / 2))) < 1e-15
+    with pytest.raises(TypeError, match="all three of phi, theta, psi"):
+        E.rotation_angle(0.3, 1.1)

@@ -85,6 +85,18 @@ def _angles(name: str, value: ArrayLike) -> Array:
     return as_float_array(name, value, last_dim=3)
 
 
+def _angles_or_triple(angles, theta, psi) -> Array:
+    """``angles (..., 3)``, or the text's three separate arguments ``(phi, theta, psi)``."""
+    if theta is None and psi is None:
+        return _angles("angles", angles)
+    if theta is None or psi is None:
+        raise TypeError("give either angles of shape (..., 3) or all three of phi, theta, psi")
+    phi = as_float_array("phi", angles)
+    th = as_float_array("theta", theta)
+    ps = as_float_array("psi", psi)
+    return np.stack(np.broadcast_arrays(phi, th, ps), axis=-1)
+
+
 def _broadcast(name_a: str, a: np.ndarray, name_b: str, b: np.ndarray):
     """Broadcast two ``(..., 3)`` arrays over their leading axes."""
     try:
@@ -326,7 +338,8 @@ def gimbal_lock(angles: ArrayLike, *, tol: float = GIMBAL_TOL) -> Mask:
     return _scalar(np.abs(np.sin(a[..., 1])) <= tol)
 
 
-def rotation_angle(angles: ArrayLike) -> Array:
+def rotation_angle(angles: ArrayLike, theta: ArrayLike | None = None,
+                   psi: ArrayLike | None = None) -> Array:
     """Rotation angle ``Phi`` of ``V`` about its invariant axis, in ``[0, pi]`` (section 1.6.1).
 
     The text's trace relation ``cos(Phi/2) = cos((phi + psi)/2) cos(theta/2)``
@@ -340,17 +353,19 @@ def rotation_angle(angles: ArrayLike) -> Array:
     Parameters
     ----------
     angles
-        ``(..., 3)`` array of ``(phi, theta, psi)``.
+        ``(..., 3)`` array of ``(phi, theta, psi)``; or, as in the text,
+        ``rotation_angle(phi, theta, psi)`` with three broadcastable arrays.
 
     Returns
     -------
     ndarray, shape ``(...)`` (a numpy float for a single sample).
     """
-    q = _quaternion(_angles("angles", angles))
+    q = _quaternion(_angles_or_triple(angles, theta, psi))
     return _scalar(2.0 * np.arctan2(_scaled_norm(q[..., 1:]), np.abs(q[..., 0])))
 
 
-def rotation_axis(angles: ArrayLike) -> Array:
+def rotation_axis(angles: ArrayLike, theta: ArrayLike | None = None,
+                  psi: ArrayLike | None = None) -> Array:
     """Unit rotation axis of ``V``: the eigenvector with eigenvalue 1 (section 1.6.1).
 
     Oriented so that ``V`` is a right-handed rotation by :func:`rotation_angle`
@@ -361,13 +376,14 @@ def rotation_axis(angles: ArrayLike) -> Array:
     Parameters
     ----------
     angles
-        ``(..., 3)`` array of ``(phi, theta, psi)``.
+        ``(..., 3)`` array of ``(phi, theta, psi)``, or ``phi`` with ``theta`` and
+        ``psi`` given separately (as for :func:`rotation_angle`).
 
     Returns
     -------
     ndarray, shape ``(..., 3)``
     """
-    q = _quaternion(_angles("angles", angles))
+    q = _quaternion(_angles_or_triple(angles, theta, psi))
     v = np.where(q[..., :1] < 0.0, -q[..., 1:], q[..., 1:])
     m = np.max(np.abs(v), axis=-1, keepdims=True)
     zero = m == 0.0
