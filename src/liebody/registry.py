@@ -165,10 +165,11 @@ _register(Method(
     "1 DMV step with modified moments (same cost as rattle)",
     description="Hairer–Vilmart preprocessed DMV of order 4 (modified moments from the "
                 "invariants); Poisson in L but not symplectic for (q, L)."))
-_register(Method(
-    "dmv6", "rattle", 6, False, True, True, True, _FREE,
-    "1 DMV step with modified moments (same cost as rattle)",
-    description="Hairer–Vilmart preprocessed DMV of order 6."))
+for _order in (6, 8, 10):
+    _register(Method(
+        f"dmv{_order}", "rattle", _order, False, True, True, True, _FREE,
+        "1 DMV step with modified moments (same cost as rattle)",
+        description=f"Hairer–Vilmart preprocessed DMV of order {_order}."))
 _register(Method(
     "euler", "baseline", 1, False, False, False, False, _ALL, "1 right-hand side",
     description="Explicit Euler on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
@@ -406,36 +407,66 @@ def best_base(moments, m0) -> tuple[str, list, dict]:
 def _dmv_modified_moments(moments, m0, h: float, order: int) -> tuple[float, float, float]:
     """Hairer–Vilmart modified moments ``1/I_i^mod = CSS / I_i + CDD`` (literature section 4).
 
-    They depend only on the invariants ``N = |m|^2/2`` and ``H = sum m_i^2/(2 I_i)``, so
-    they are computed once per run.
+    ``CSS = 1 + sum_k s_k(N, H)`` and ``CDD = sum_k d_k(N, H)``, with homogeneous
+    polynomials of degree ``k = 1 .. order/2 - 1`` in ``N = h^2 |m|^2 / 2`` and
+    ``H = h^2 sum m_i^2 / (2 I_i)`` whose coefficients are the rational functions of the
+    moments of Hairer & Vilmart (J. Phys. A 39 (2006) 13225, Table 1, and their
+    DMV10 routine for orders 8 and 10). They depend only on the invariants, so they
+    are computed once per run.
     """
     I1, I2, I3 = (float(v) for v in moments)
     m = np.asarray(m0, dtype=float)
-    N = 0.5 * float(m @ m)
-    H = 0.5 * float(np.sum(m * m / np.array([I1, I2, I3])))
-    xdet = I1 * I2 * I3
-    xs1 = I1 + I2 + I3
-    s31 = xs1 / (6.0 * xdet)
-    s32 = -(1.0 / I1 + 1.0 / I2 + 1.0 / I3) / 3.0
-    d31 = -1.0 / (3.0 * xdet)
-    d32 = s31
-    h2 = h * h
-    css = 1.0 + h2 * (s31 * N + s32 * H)
-    cdd = h2 * (d31 * N + d32 * H)
-    if order >= 6:
-        xs2 = I1 * I1 + I2 * I2 + I3 * I3
-        xi1 = 1.0 / I1 + 1.0 / I2 + 1.0 / I3
-        xi2 = 1.0 / I1**2 + 1.0 / I2**2 + 1.0 / I3**2
-        xsi = (I1 + I2) / I3 + (I2 + I3) / I1 + (I3 + I1) / I2
-        s51 = (xs2 / xdet - xi1) / (30.0 * xdet)
-        s52 = (1.0 - xsi) / (30.0 * xdet)
-        s53 = (3.0 * xs1 / xdet + 2.0 * xi2) / 60.0
-        d51 = -xs1 / xdet**2 / 60.0
-        d52 = xi1 / xdet / 10.0 - xs2 / xdet**2 / 60.0
-        d53 = -(9.0 + xsi) / xdet / 60.0
-        h4 = h2 * h2
-        css += h4 * (s51 * N * N + s52 * N * H + s53 * H * H)
-        cdd += h4 * (d51 * N * N + d52 * N * H + d53 * H * H)
+    N = 0.5 * h * h * float(m @ m)
+    H = 0.5 * h * h * float(np.sum(m * m / np.array([I1, I2, I3])))
+    det = I1 * I2 * I3
+    det2, det3, det4 = det**2, det**3, det**4
+    s1, s2, s3, s4 = (I1**k + I2**k + I3**k for k in (1, 2, 3, 4))
+    i1, i2, i3, i4 = (I1**-k + I2**-k + I3**-k for k in (1, 2, 3, 4))
+
+    def tau(b: int, c: int) -> float:
+        """sum over i of (I_j^b + I_k^b) / I_i^c (the paper's tau_{b,c})."""
+        return ((I1**b + I2**b) / I3**c + (I2**b + I3**b) / I1**c
+                + (I3**b + I1**b) / I2**c)
+
+    t11, t12, t21, t13, t31, t22 = tau(1, 1), tau(1, 2), tau(2, 1), tau(1, 3), tau(3, 1), \
+        tau(2, 2)
+    # degree 1 (order 4)
+    css = 1.0 + (s1 / (6.0 * det)) * N - (i1 / 3.0) * H
+    cdd = -N / (3.0 * det) + (s1 / (6.0 * det)) * H
+    if order >= 6:  # degree 2
+        css += ((s2 / det - i1) / (30.0 * det) * N * N + (1.0 - t11) / (30.0 * det) * N * H
+                + (3.0 * s1 / det + 2.0 * i2) / 60.0 * H * H)
+        cdd += (-s1 / det2 / 60.0 * N * N + (i1 / det / 10.0 - s2 / det2 / 60.0) * N * H
+                - (9.0 + t11) / det / 60.0 * H * H)
+    if order >= 8:  # degree 3
+        css += ((4.0 * det + 17.0 * s3 - 15.0 * det * t11) / (2520.0 * det3) * N**3
+                + (9.0 * s1 + 10.0 * det * i2 - 6.0 * t21) / (420.0 * det2) * N * N * H
+                + ((6.0 * t12 - 100.0 * i1) * det + 53.0 * s2) / (2520.0 * det2) * N * H * H
+                + (15.0 - det * i3 - 2.0 * t11) / (630.0 * det) * H**3)
+        cdd += ((34.0 * det * i1 - 19.0 * s2) / (2520.0 * det3) * N**3
+                + (s3 + 2.0 * det * t11 - 85.0 * det) / (1260.0 * det3) * N * N * H
+                + (47.0 * s1 + 13.0 * t21 - 38.0 * det * i2) / (2520.0 * det2) * N * H * H
+                + (9.0 * det * i1 + det * t12 - 11.0 * s2) / (1260.0 * det2) * H**3)
+    if order >= 10:  # degree 4
+        css += ((62.0 * s4 - 94.0 * det * t21 + 66.0 * det2 * i2 + 81.0 * det * s1)
+                / (45360.0 * det4) * N**4
+                + (-77.0 * t31 + 75.0 * det * t12 + 214.0 * s2 - 240.0 * det * i1)
+                / (22680.0 * det3) * N**3 * H
+                + (26.0 * det * t22 + 55.0 * s3 + 204.0 * det - 50.0 * det2 * i3
+                   - 59.0 * det * t11) / (7560.0 * det3) * N * N * H * H
+                + (137.0 * det * i2 - det * t13 + 3.0 * s1 - 69.0 * t21)
+                / (11340.0 * det2) * N * H**3
+                + (2.0 * det2 * i4 + 5.0 * det * t12 - 171.0 * det * i1 + 159.0 * s2)
+                / (45360.0 * det2) * H**4)
+        cdd += ((60.0 * t11 * det - 61.0 * s3 - 247.0 * det) / (45360.0 * det4) * N**4
+                + (54.0 * det * s1 - s4 + 218.0 * det * t21 - 426.0 * det2 * i2)
+                / (45360.0 * det4) * N**3 * H
+                + (125.0 * det * i1 - 5.0 * t31 - 130.0 * s2 + 4.0 * det * t12)
+                / (7560.0 * det3) * N * N * H * H
+                + (67.0 * s3 - 735.0 * det - 15.0 * det * t22 + 87.0 * det * t11
+                   + 34.0 * det2 * i3) / (22680.0 * det3) * N * H**3
+                + (165.0 * s1 - det * t13 - 9.0 * t21 - 145.0 * det * i2)
+                / (45360.0 * det2) * H**4)
     return tuple(1.0 / (css / I + cdd) for I in (I1, I2, I3))
 
 
@@ -525,7 +556,7 @@ def _plan_free(method: Method, moments, m0, h: float) -> Plan:
         return _table(compose(base, method.coefficients), info=info)
     if name == "rattle":
         return _table([_stage(_drv.STAGE_DMV, 0, 1.0, moments, clock=1.0)], merge=False)
-    if name in ("dmv4", "dmv6"):
+    if name in ("dmv4", "dmv6", "dmv8", "dmv10"):
         mod = _dmv_modified_moments(moments, m0, h, method.order)
         if not all(np.isfinite(v) and v > 0.0 for v in mod):
             raise ValueError(
