@@ -126,9 +126,9 @@ def test_energy_error_matches_modified_hamiltonian_prediction(hlw):
         state = np.concatenate([[1.0, 0, 0, 0], L0])
         _drive(run, plan, h, n, state, q_out, m_out)
         T = 0.5 * np.sum(m_out**2 / scene.moments, axis=1)
-        T0 = 0.5 * np.sum(L0**2 / scene.moments)
         observed = T.max() - T.min()
-        assert abs(observed - predicted) < 0.02 * predicted + abs(T0 - T).min()
+        # the O(h^4) remainder of the modified Hamiltonian is ~h^2 smaller: 2 % is ample
+        assert abs(observed - predicted) < 0.02 * predicted
 
 
 # -------------------------------------------------------------------------- verification

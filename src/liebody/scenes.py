@@ -32,9 +32,7 @@ class FreeBody:
     body: RigidBody
 
     def __post_init__(self) -> None:
-        if not isinstance(self.body, RigidBody):
-            raise TypeError(
-                f"body must be a liebody.RigidBody, got {type(self.body).__name__}")
+        _init_body(self, self.body, "auto")
 
     default_method = "exact"
     free_flow = "auto"

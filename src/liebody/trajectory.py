@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -56,12 +57,18 @@ class Trajectory:
         """``T = sum L_i^2 / (2 I_i)``."""
         return 0.5 * np.sum(self.L * self.L / self.moments, axis=-1)
 
-    @property
+    @cached_property
     def orientation(self) -> np.ndarray:
-        """``q / |q|``: the rotation the samples stand for (the baselines let ``|q|`` drift)."""
+        """``q / |q|``: the rotation the samples stand for (the baselines let ``|q|`` drift).
+
+        Computed once (energy, ``L_space``, ``omega_space`` and the Euler angles all
+        use it) and read-only.
+        """
         from liebody import quaternion
 
-        return quaternion.normalize(self.q) if len(self) else self.q
+        out = quaternion.normalize(self.q) if len(self) else self.q.copy()
+        out.flags.writeable = False
+        return out
 
     @property
     def potential_energy(self) -> np.ndarray:
