@@ -312,13 +312,26 @@ def compose(base: list[Stage], coefficients: tuple[float, ...]) -> list[Stage]:
     return out
 
 
+def _recurs(moments, k: int) -> float:
+    """1.0 when ``m_k`` is a constant of the free motion (the other two moments agree to
+    within the exact-flow kernel's ``SYM_RTOL``): the axis-``k`` rotation then has the same
+    angle every step and the kernel unit-corrects it (``axis_flow_recurring``)."""
+    from liebody._kernels.exact import SYM_RTOL
+
+    i, j = (k + 1) % 3, (k + 2) % 3
+    return 1.0 if abs(moments[i] - moments[j]) <= SYM_RTOL * max(moments) else 0.0
+
+
+def _axis(k: int, coef: float, rate: float, moments, clock: float = 0.0) -> Stage:
+    return _stage(_drv.STAGE_AXIS, k, coef, (rate, _recurs(moments, k)), clock=clock)
+
+
 def _axis_stages(moments, order3) -> list[Stage]:
     a, b, c = order3
-    A = _drv.STAGE_AXIS
     r = [1.0 / moments[i] for i in range(3)]
-    return [_stage(A, a, 0.5, (r[a],)), _stage(A, b, 0.5, (r[b],)),
-            _stage(A, c, 1.0, (r[c],), clock=1.0),
-            _stage(A, b, 0.5, (r[b],)), _stage(A, a, 0.5, (r[a],))]
+    return [_axis(a, 0.5, r[a], moments), _axis(b, 0.5, r[b], moments),
+            _axis(c, 1.0, r[c], moments, clock=1.0),
+            _axis(b, 0.5, r[b], moments), _axis(a, 0.5, r[a], moments)]
 
 
 def _axis_pieces(moments, order3):
@@ -342,9 +355,9 @@ def _sr2_parts(moments, variant):
 def _sr2_stages(moments, variant):
     a, b, c = variant
     rate_r, rate_c = _sr2_parts(moments, variant)
-    A, S = _drv.STAGE_AXIS, _drv.STAGE_SPHERE
-    return [_stage(A, b, 0.5, (rate_r,)), _stage(S, 0, 1.0, (1.0 / moments[a],), clock=1.0),
-            _stage(A, c, 1.0, (rate_c,)), _stage(A, b, 0.5, (rate_r,))]
+    S = _drv.STAGE_SPHERE
+    return [_axis(b, 0.5, rate_r, moments), _stage(S, 0, 1.0, (1.0 / moments[a],), clock=1.0),
+            _axis(c, 1.0, rate_c, moments), _axis(b, 0.5, rate_r, moments)]
 
 
 def _sr2_pieces(moments, variant):
@@ -496,7 +509,7 @@ def free_flow_stages(body, m0, choice: str = "auto") -> tuple[list[Stage], str]:
         c = close.index(True)  # the pair (c+1, c+2) is equal: c is the symmetry axis
         i_perp = 0.5 * (I[(c + 1) % 3] + I[(c + 2) % 3])
         return [_stage(_drv.STAGE_SPHERE, 0, 1.0, (1.0 / i_perp,), clock=1.0),
-                _stage(_drv.STAGE_AXIS, c, 1.0, (1.0 / I[c] - 1.0 / i_perp,))], "symmetric"
+                _stage(_drv.STAGE_AXIS, c, 1.0, (1.0 / I[c] - 1.0 / i_perp, 1.0))], "symmetric"
     if choice == "exact":
         return [_stage(_drv.STAGE_EXACT, 0, 1.0, I, clock=1.0)], "elliptic"
     order, _ = best_axis_ordering(I, m0)

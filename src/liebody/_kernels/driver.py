@@ -31,6 +31,7 @@ from numba import njit
 from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import (
     axis_flow,
+    axis_flow_recurring,
     dmv_step,
     euler_step,
     lie_euler_step,
@@ -66,7 +67,10 @@ MODE_GENERAL = 2
 def apply_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     """Apply one stage (parameters ``p``, clock ``t``) for time ``tau``; state and status."""
     if kind == STAGE_AXIS:
-        r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[0], tau)
+        if p[1] != 0.0:
+            r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, p[0], tau)
+        else:
+            r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[0], tau)
     elif kind == STAGE_SPHERE:
         r = sphere_flow(w, x, y, z, m1, m2, m3, p[0], tau)
     elif kind == STAGE_KICK:
@@ -127,7 +131,10 @@ def _apply(mode, kinds, axes, params, j, t, tau, w, x, y, z, m1, m2, m3, torque_
         return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
     if mode == MODE_ROTATIONS:
         if kinds[j] == STAGE_AXIS:
-            r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, 0], tau)
+            if params[j, 1] != 0.0:
+                r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axes[j], params[j, 0], tau)
+            else:
+                r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, 0], tau)
         else:
             r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, 0], tau)
         return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
@@ -155,7 +162,8 @@ def run(kinds, axes, coefs, clock, params, h, t0, n_steps, save_every, merge_end
     ns = kinds.shape[0]
     mode = MODE_AXES
     for j in range(ns):
-        if kinds[j] == STAGE_SPHERE and mode == MODE_AXES:
+        if mode == MODE_AXES and (kinds[j] == STAGE_SPHERE or (
+                kinds[j] == STAGE_AXIS and params[j, 1] != 0.0)):
             mode = MODE_ROTATIONS
         elif kinds[j] != STAGE_AXIS and kinds[j] != STAGE_SPHERE:
             mode = MODE_GENERAL

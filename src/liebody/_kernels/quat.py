@@ -116,6 +116,32 @@ def qunit_increment(w, x, y, z):
 
 
 @njit(cache=True)
+def qexp_increment(rx, ry, rz):
+    """:func:`qexp` as ``(cm, vx, vy, vz)`` with ``cm = cos(|r|/2) - 1`` kept to full
+    relative accuracy, for :func:`qmul_increment`.
+
+    An increment ``(1 + cm, v)`` never rounds its scalar part to the grid of numbers
+    near 1 (spacing 1.1e-16), whose error, the same every step when the same rotation
+    recurs, would make ``|q|`` drift linearly. Its norm error is of order
+    ``eps |v|^2`` instead: 4e-20 per step at a rotation angle of 0.04.
+    """
+    c, vx, vy, vz = qexp(rx, ry, rz)
+    v2 = vx * vx + vy * vy + vz * vz
+    cm = -v2 / (1.0 + c) if c > 0.0 else c - 1.0
+    return cm, vx, vy, vz
+
+
+@njit(cache=True)
+def qmul_increment(w, x, y, z, cm, vx, vy, vz):
+    """``q * (1 + cm, v)`` evaluated as ``q + (cm q + q * (0, v))``: the small update is
+    formed first and added once, so its rounding does not depend on the grid near 1."""
+    return (w + (cm * w - x * vx - y * vy - z * vz),
+            x + (cm * x + w * vx + y * vz - z * vy),
+            y + (cm * y + w * vy + z * vx - x * vz),
+            z + (cm * z + w * vz + x * vy - y * vx))
+
+
+@njit(cache=True)
 def qlog(w, x, y, z):
     """Rotation vector of a unit quaternion, angle in ``[0, pi]``.
 

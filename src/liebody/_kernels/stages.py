@@ -1,6 +1,7 @@
 """Stage kinds and driver status codes (plain integers, importable without numba)."""
 
-STAGE_AXIS = 0  # exact flow of rate * m_k^2 / 2 about body axis k (params[0] = rate)
+STAGE_AXIS = 0  # exact flow of rate * m_k^2 / 2 about body axis k (params[0] = rate;
+#                 params[1] = 1: the angle recurs every step, unit-correct it)
 STAGE_SPHERE = 1  # exact flow of rate * |m|^2 / 2 (params[0] = rate)
 STAGE_DMV = 2  # discrete Moser-Veselov / RATTLE step (params = moments)
 STAGE_EXACT = 3  # exact free-body flow (params = moments)
