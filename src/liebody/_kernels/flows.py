@@ -19,10 +19,10 @@ from numba import njit
 from liebody._kernels.quat import (
     qaxis_rotation,
     qexp,
-    qmul,
-    qrotate_inv,
     qexp_increment,
+    qmul,
     qmul_increment,
+    qrotate_inv,
     qunit_increment,
 )
 from liebody._kernels.torque import TORQUE_NONE, damping_rate, torque_value

@@ -322,10 +322,8 @@ def style(name: str) -> dict:
     """Line style of a method or peer: solid for liebody's geometric methods, dashed
     for its baselines, dotted for scipy and MuJoCo."""
     fam = None
-    try:
+    with contextlib.suppress(KeyError, ValueError):
         fam = liebody.methods()[name].family
-    except (KeyError, ValueError):
-        pass
     ls = "-" if fam not in (None, "baseline") else ("--" if fam == "baseline" else ":")
     marker = "o" if fam not in (None, "baseline") else ("s" if fam == "baseline" else "^")
     return {"color": _COLOURS.get(name, "0.5"), "ls": ls, "marker": marker, "ms": 3,

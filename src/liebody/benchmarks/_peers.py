@@ -107,9 +107,9 @@ def _mujoco_xml(problem: Problem, integrator: str, h: float) -> str:
         Icm = [float(v) for v in Icm]
         inertial = (f'<inertial pos="0 0 {l_mj!r}" mass="{float(m_mj)!r}" '
                     f'diaginertia="{Icm[0]!r} {Icm[1]!r} {Icm[2]!r}"/>')
-    return (f'<mujoco><option timestep="{float(h)!r}" integrator="{integrator}" gravity="{gravity}">'
-            f'<flag contact="disable" autoreset="disable"/></option><worldbody><body name="b">{joint}{inertial}'
-            f"</body></worldbody></mujoco>")
+    return (f'<mujoco><option timestep="{float(h)!r}" integrator="{integrator}" '
+            f'gravity="{gravity}"><flag contact="disable" autoreset="disable"/></option>'
+            f'<worldbody><body name="b">{joint}{inertial}</body></worldbody></mujoco>')
 
 
 class MujocoRun:

@@ -55,7 +55,7 @@ def _grids(n: int, samples: int) -> list[tuple[int, int]]:
     """Nested uniform grids: (steps, save_every) covering n/1e4, n/1e2 and n steps."""
     out = []
     for frac in (1e-4, 1e-2, 1.0):
-        m = max(int(round(n * frac)), 1)
+        m = max(round(n * frac), 1)
         out.append((m, max(m // samples, 1)))
     return out
 
@@ -261,7 +261,7 @@ def plot(summary: dict, path: Path) -> None:
 
 def report(summary: dict) -> str:
     lines = []
-    for key, info in summary["problems"].items():
+    for info in summary["problems"].values():
         lines.append(f"== {info['title']}, h = {info['h']:g}; invariant "
                      f"{info['momentum_invariant']}")
         lines.append(f"  {'method':22s} {'t_end':>9s} {'energy: early':>13s} {'late':>9s} "

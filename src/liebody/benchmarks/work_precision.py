@@ -438,7 +438,7 @@ def main(argv: list[str] | None = None) -> int:
 def report(summary: dict) -> str:
     """The ratio tables and crossover verdicts as text."""
     lines = []
-    for key, info in summary["problems"].items():
+    for info in summary["problems"].values():
         lines.append(f"== {info['title']} (reference: {info['reference']['reference']})")
         for hz, table in info["ratios"].items():
             for level, entry in table.items():
