@@ -158,6 +158,15 @@ def mujoco_run(problem, integrator: str, h: float, n: int, samples: int) -> dict
     return out
 
 
+def _one(source: str, m: str, pb, h: float, cfg: dict, T_max: float) -> tuple[dict, str]:
+    if source == "liebody":
+        n = cfg["slow_steps"] if m in SLOW else cfg["steps"]
+        return liebody_run(pb, m, h, n, cfg["samples"]), m
+    if source == "scipy":
+        return scipy_run(pb, m, cfg["peer_budget"], T_max, cfg["samples"]), f"scipy {m}"
+    return mujoco_run(pb, m, h, cfg["mujoco_steps"], cfg["samples"]), f"MuJoCo {m}"
+
+
 def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
     cfg = settings(quick)
     out = Path(out)
@@ -174,16 +183,8 @@ def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
         T_max = cfg["steps"] * h
         curves = {}
         for source, m in C.progress(jobs, f"long horizon {key}", show_progress):
-            if source == "liebody":
-                n = cfg["slow_steps"] if m in SLOW else cfg["steps"]
-                res = liebody_run(pb, m, h, n, cfg["samples"])
-                label = m
-            elif source == "scipy":
-                res = scipy_run(pb, m, cfg["peer_budget"], T_max, cfg["samples"])
-                label = f"scipy {m}"
-            else:
-                res = mujoco_run(pb, m, h, cfg["mujoco_steps"], cfg["samples"])
-                label = f"MuJoCo {m}"
+            with np.errstate(over="ignore", invalid="ignore"):
+                res, label = _one(source, m, pb, h, cfg, T_max)
             curves[label] = res
             finite = np.isfinite(res["energy"])
             csv_rows.append([key, label, source, res["h"], res.get("rtol"), res["steps"],
@@ -215,11 +216,13 @@ def _final(res: dict) -> dict:
     for k in ("energy", "qnorm", "momentum"):
         v = np.asarray(res[k])
         fin = np.isfinite(v)
-        late = fin & (t >= 0.9 * t[-1])
-        early = fin & (t <= 0.1 * t[-1]) & (t >= 0.01 * t[-1])
-        out[k] = {"max": float(v[fin].max(initial=0.0)),
-                  "early_decile": float(v[early].max(initial=0.0)),
-                  "last_decile": float(v[late].max(initial=0.0))}
+        t_end = res["failed_at"] or t[-1]
+        late = fin & (t >= 0.9 * t_end)
+        early = fin & (t <= 0.1 * t_end) & (t >= 0.01 * t_end)
+        # a window with no finite sample (the run blew up before it) reads inf
+        out[k] = {"max": float(v[fin].max()) if fin.any() else np.inf,
+                  "early_decile": float(v[early].max()) if early.any() else np.inf,
+                  "last_decile": float(v[late].max()) if late.any() else np.inf}
     return out
 
 
