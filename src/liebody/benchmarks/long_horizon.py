@@ -44,8 +44,8 @@ def settings(quick: bool) -> dict:
     if quick:
         return {"steps": 10**5, "slow_steps": 10**4, "samples": 400, "peer_budget": 1.0,
                 "mujoco_steps": 10**5, "problems": ["asym", "top"]}
-    return {"steps": 10**8, "slow_steps": 10**7, "samples": 2000, "peer_budget": 60.0,
-            "mujoco_steps": 10**7, "problems": ["asym", "top"]}
+    return {"steps": 10**8, "slow_steps": 10**7, "samples": 2000, "peer_budget": 30.0,
+            "mujoco_steps": 3 * 10**6, "problems": ["asym", "top"]}
 
 
 SLOW = ("splitting6", "splitting8")

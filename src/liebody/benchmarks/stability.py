@@ -104,7 +104,7 @@ def settings(quick: bool) -> dict:
         return {"free_problem": "asym", "free_x": [0.01, 10.0], "free_points": 10,
                 "free_min_steps": 1000, "free_min_periods": 8, "bisections": 4,
                 "top_problem": "top", "top_x": [0.1, 10.0], "top_points": 9,
-                "top_fine": [5.9, 6.7, 9], "top_T": 20.0,
+                "top_fine": [5.8, 7.0, 13], "top_T": 20.0,
                 "gimbal_moments": [1.0, 1.0, 0.5], "gimbal_alpha": 0.5,
                 "gimbal_theta_min": [1e-1, 1e-6], "gimbal_points": 6, "gimbal_h": [0.01],
                 "gimbal_periods": 2}
@@ -177,13 +177,13 @@ def run_case(problem: C.Problem, method: str, x: float, h: float, steps: int) ->
     dict
         ``x``, ``h``, ``steps``, ``T``, ``status`` (``"ok"``, ``"non-finite at t=..."``
         or the exception's name), ``max_rel_energy_error``, ``max_q_norm_drift``,
-        ``min_q_norm``, ``max_L_norm_drift``, ``growth`` (last/first quarter),
+        ``min_q_norm``, ``max_q_norm``, ``max_L_norm_drift``, ``growth`` (last/first quarter),
         ``energy_bounded``, ``qnorm_bounded`` and ``reason`` (why the energy is not
         bounded; empty when it is).
     """
     row = {"x": float(x), "h": float(h), "steps": int(steps), "T": float(h * steps),
            "status": "ok", "max_rel_energy_error": None, "max_q_norm_drift": None,
-           "min_q_norm": None, "max_L_norm_drift": None, "growth": None,
+           "min_q_norm": None, "max_q_norm": None, "max_L_norm_drift": None, "growth": None,
            "energy_bounded": False, "qnorm_bounded": False, "reason": ""}
     try:
         with C.quiet_runtime_warnings():
@@ -201,7 +201,7 @@ def run_case(problem: C.Problem, method: str, x: float, h: float, steps: int) ->
         nL = np.linalg.norm(tr.L, axis=-1) / np.linalg.norm(problem.L0)
         row.update(max_rel_energy_error=float(np.max(e)),
                    max_q_norm_drift=float(np.max(np.abs(nq - 1.0))),
-                   min_q_norm=float(np.min(nq)),
+                   min_q_norm=float(np.min(nq)), max_q_norm=float(np.max(nq)),
                    max_L_norm_drift=float(np.max(np.abs(nL - 1.0))))
     if tr.failed_at is not None:
         row.update(status=f"non-finite at t={tr.failed_at:.4g}", reason="state non-finite")
@@ -241,33 +241,37 @@ def failure_point(rows: list[dict], key: str, evaluate: Callable[[float], dict],
     -------
     dict
         ``x`` (grid point, or ``None``), ``x_refined``, ``bracket`` ``[last pass, first
-        fail]``, ``reason`` and ``max_rel_energy_error`` of the refined failing run,
-        ``recovers_at`` (swept ``x`` above the failure point that pass) and ``extra``
-        (the bisection's rows).
+        fail]``, ``reason``, ``status`` and ``max_rel_energy_error`` of the refined failing run,
+        ``pass_max_rel_energy_error`` of the last passing one, ``recovers_at`` (swept
+        ``x`` above the failure point that pass) and ``extra`` (the bisection's rows).
     """
     first = next((i for i, r in enumerate(rows) if not r[key]), None)
     if first is None:
-        return {"x": None, "x_refined": None, "bracket": None, "reason": "",
-                "max_rel_energy_error": None, "recovers_at": [], "extra": []}
+        return {"x": None, "x_refined": None, "bracket": None, "reason": "", "status": None,
+                "max_rel_energy_error": None, "pass_max_rel_energy_error": None,
+                "recovers_at": [], "extra": []}
     fail_row = rows[first]
-    lo = rows[first - 1]["x"] if first > 0 else None
+    pass_row = rows[first - 1] if first > 0 else None
     extra = []
-    if lo is not None:
-        a, b = math.log(lo), math.log(fail_row["x"])
+    if pass_row is not None:
+        a, b = math.log(pass_row["x"]), math.log(fail_row["x"])
         for _ in range(bisections):
             mid = math.exp(0.5 * (a + b))
             r = evaluate(mid)
             extra.append(r)
             if r[key]:
-                a = math.log(mid)
+                a, pass_row = math.log(mid), r
             else:
                 b, fail_row = math.log(mid), r
-        lo = math.exp(a)
     reason = fail_row["reason"] if key == "energy_bounded" else (
         fail_row["status"] if fail_row["status"] != "ok" else
-        f"|q| up to {1 + fail_row['max_q_norm_drift']:.3g}")
-    return {"x": rows[first]["x"], "x_refined": fail_row["x"], "bracket": [lo, fail_row["x"]],
-            "reason": reason, "max_rel_energy_error": fail_row["max_rel_energy_error"],
+        f"|q| up to {fail_row['max_q_norm']:.3g}")
+    return {"x": rows[first]["x"], "x_refined": fail_row["x"],
+            "bracket": [None if pass_row is None else pass_row["x"], fail_row["x"]],
+            "reason": reason, "status": fail_row["status"],
+            "max_rel_energy_error": fail_row["max_rel_energy_error"],
+            "pass_max_rel_energy_error": (None if pass_row is None
+                                          else pass_row["max_rel_energy_error"]),
             "recovers_at": [r["x"] for r in rows[first + 1:] if r[key]], "extra": extra}
 
 
@@ -277,8 +281,8 @@ def _strip(fp: dict) -> dict:
 
 
 _COLUMNS = ("x", "h", "steps", "T", "status", "max_rel_energy_error", "max_q_norm_drift",
-            "min_q_norm", "max_L_norm_drift", "growth", "energy_bounded", "qnorm_bounded",
-            "reason")
+            "min_q_norm", "max_q_norm", "max_L_norm_drift", "growth", "energy_bounded",
+            "qnorm_bounded", "reason")
 
 
 def columns(rows: list[dict]) -> dict:
@@ -297,9 +301,10 @@ def rows_of(sweep: dict) -> list[dict]:
 def momentum_period(problem: C.Problem) -> float:
     """Period of the body-frame momentum ``L(t)`` of a free asymmetric body.
 
-    ``4 K(k) / lambda`` with the Jacobi modulus and frequency of the polhode (the axes
-    are relabelled so that the motion circulates about the first one); ``2 pi / |omega|``
-    for a symmetric body or a steady rotation.
+    ``4 K(m) / lambda`` with the Jacobi parameter ``m`` and frequency ``lambda`` of the
+    polhode (Landau & Lifshitz, Mechanics, section 37; the axes are relabelled so that
+    the motion circulates about the third one); ``2 pi / |omega_0|`` for a symmetric
+    body or a steady rotation.
     """
     from scipy.special import ellipk
 
@@ -446,6 +451,20 @@ def gimbal_initial(theta_min: float, alpha: float) -> tuple[np.ndarray, np.ndarr
     return q0, L0
 
 
+def _gimbal_stats(thetas: np.ndarray, err_angles: list, err_quat: list) -> dict:
+    """Slope of log(error) against log(theta_min) over the first decade of the sweep,
+    the largest Euler-angle error and where it occurs, the worst quaternion error."""
+    ea = np.array([np.nan if e is None else e for e in err_angles])
+    sel = (thetas >= thetas[0] / 10.0 * (1 - 1e-9)) & np.isfinite(ea) & (ea > 0)
+    slope = (float(np.polyfit(np.log(thetas[sel]), np.log(ea[sel]), 1)[0])
+             if sel.sum() >= 2 else None)
+    k = int(np.nanargmax(ea)) if np.any(np.isfinite(ea)) else None
+    return {"euler_angles_slope_first_decade": slope,
+            "euler_angles_peak": None if k is None else {"theta_min": float(thetas[k]),
+                                                         "error": float(ea[k])},
+            "quaternion_max_error": float(np.max(err_quat))}
+
+
 def gimbal_sweep(cfg: dict, bar) -> dict:
     """Panel (c): RK4 on Euler angles against RK4 on quaternions near gimbal lock."""
     moments = np.array(cfg["gimbal_moments"], dtype=float)
@@ -487,7 +506,8 @@ def gimbal_sweep(cfg: dict, bar) -> dict:
             q_exact.append(qe)
         out["runs"].append({"h": h, "steps": n, "T": n * h,
                             "euler_angles_rk4": err_angles, "quaternion_rk4": err_quat,
-                            "wall_s_euler_angles": wall_angles})
+                            "wall_s_euler_angles": wall_angles,
+                            **_gimbal_stats(thetas, err_angles, err_quat)})
         bar.update(1)
     return out
 
@@ -574,17 +594,25 @@ def _energy_curve(rows: list[dict]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _marker_y(fp: dict) -> float:
+    """Height of a failure marker: the failing run's energy error; where that run raised,
+    the last passing run's (the end of the line); where it blew up, the ceiling."""
+    if fp["status"] in _RAISED:
+        e = fp["pass_max_rel_energy_error"]
+        return _CEIL if e is None else float(np.clip(e, _FLOOR, _CEIL))
     e = fp["max_rel_energy_error"]
-    if e is None or not np.isfinite(e) or fp["reason"] in ("implicit step has no solution",):
+    if e is None or not np.isfinite(e):
         return _CEIL
     return float(np.clip(e, _FLOOR, _CEIL))
 
 
-def _sweep_panel(ax, info: dict, with_q: bool) -> None:
+_RAISED = ("ConvergenceError", "ValueError")
+
+
+def _sweep_panel(ax, info: dict, with_q: bool, label_at: float | None) -> None:
     for m, d in info["methods"].items():
         st = C.style(m)
         x, y = _energy_curve(rows_of(d["sweep"]))
-        ax.loglog(x, y, lw=1.2, **st)
+        ax.loglog(x, y, lw=1.2, **(st | {"ms": 2.5}))
         fe = d["energy_failure"]
         if fe["x_refined"] is not None:
             ax.plot(fe["x_refined"], _marker_y(fe), marker="*", ms=13, color=st["color"],
@@ -593,26 +621,30 @@ def _sweep_panel(ax, info: dict, with_q: bool) -> None:
         if with_q and fq and fq["x_refined"] is not None and fq["reason"].startswith("|q|"):
             ax.plot(fq["x_refined"], _marker_y(fq), marker="v", ms=9, color=st["color"],
                     mec="k", mew=0.6, ls="none", zorder=6)
-    ax.axhline(E_TOL, color="0.3", lw=0.9, ls="-.")
-    ax.text(0.005, E_TOL, f" bounded-energy threshold {E_TOL:g}", color="0.3", fontsize=7,
-            va="bottom", transform=ax.get_yaxis_transform())
-    ax.set_ylim(_FLOOR * 0.5, _CEIL * 3)
+    ax.axhline(E_TOL, color="0.3", lw=0.9, ls="-.",
+               label=f"bounded-energy threshold {E_TOL:g}" if label_at is None else None)
+    if label_at is not None:
+        ax.text(label_at, E_TOL, f"bounded-energy threshold {E_TOL:g} ", color="0.3", fontsize=7,
+                va="top", ha="right", transform=ax.get_yaxis_transform())
     ax.grid(True, which="both", alpha=0.25)
 
 
 def plot(summary: dict, path: Path) -> None:
-    """The three panels in one figure."""
+    """The three panels in one figure ((b) with a linear zoom on the resonance)."""
     from matplotlib.lines import Line2D
 
     plt = C.pyplot()
-    fig = plt.figure(figsize=(15, 12))
-    gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1.0])
+    fig = plt.figure(figsize=(16, 12.5))
+    gs = fig.add_gridspec(2, 3, height_ratios=[1.1, 1.0], width_ratios=[1.25, 0.75, 1.1])
     ax_a = fig.add_subplot(gs[0, :])
     ax_b = fig.add_subplot(gs[1, 0])
-    ax_c = fig.add_subplot(gs[1, 1])
+    ax_z = fig.add_subplot(gs[1, 1])
+    ax_c = fig.add_subplot(gs[1, 2])
 
+    # (a) free body
     fb = summary["free_body"]
-    _sweep_panel(ax_a, fb, with_q=True)
+    _sweep_panel(ax_a, fb, with_q=True, label_at=0.3)
+    ax_a.set_ylim(_FLOOR * 0.5, _CEIL * 3)
     ax_a.axvline(RK4_Q_LIMIT, color="k", lw=0.8, ls=":")
     ax_a.text(RK4_Q_LIMIT, 1e-15, " RK4 |q| limit\n h|ω| = 4√2", fontsize=7, va="bottom")
     n_min = min(n for d in fb["methods"].values() for n in d["sweep"]["steps"])
@@ -621,43 +653,74 @@ def plot(summary: dict, path: Path) -> None:
     ax_a.set_title(f"(a) {fb['title']}: max relative energy error, every method "
                    f"(≥ {n_min} steps and ≥ {summary['settings']['free_min_periods']} "
                    f"periods of L(t) per run; ≥ {_CEIL:g} or non-finite drawn at {_CEIL:g}; "
-                   "no point: implicit step has no solution)", fontsize=9.5)
+                   "a line that stops: implicit step has no solution)", fontsize=9.5)
     handles, labels = ax_a.get_legend_handles_labels()
     handles += [Line2D([], [], marker="*", ms=11, color="0.6", mec="k", ls="none"),
                 Line2D([], [], marker="v", ms=8, color="0.6", mec="k", ls="none")]
     labels += ["energy no longer bounded\n(refined failure point)",
-               f"|q| grows > {1 + Q_TOL:g}\n(refined)"]
+               f"|q| grows above {1 + Q_TOL:g}\n(refined failure point)"]
     ax_a.legend(handles, labels, fontsize=7.5, loc="upper left", bbox_to_anchor=(1.005, 1.0),
                 ncol=1, frameon=False)
 
+    # (b) heavy top, and its zoom on the resonance
     tp = summary["heavy_top"]
-    _sweep_panel(ax_b, tp, with_q=False)
+    _sweep_panel(ax_b, tp, with_q=False, label_at=None)
+    ax_b.set_ylim(_FLOOR * 0.5, 1e6)
     ax_b.axvline(2 * math.pi, color="k", lw=0.8, ls=":")
-    ax_b.text(2 * math.pi, 1e-15, " h ω_nut = 2π", fontsize=7, va="bottom")
     ax_b.set_xlabel("h ω_nut  (step × nutation frequency) [rad]")
     ax_b.set_ylabel("max |E/E₀ − 1| over the run [–]")
     ax_b.set_title(f"(b) {tp['title']}\nmax relative energy error over T = {tp['T']:g}, "
                    f"ω_nut = {tp['omega_nutation']:g} rad/s (★: energy no longer bounded)",
                    fontsize=9.5)
-    ax_b.legend(fontsize=7, ncol=2, loc="lower right")
+    ax_b.legend(fontsize=7, ncol=3, loc="upper center", columnspacing=0.8)
+    lo, hi = summary["settings"]["top_fine"][:2]
+    for m, d in tp["methods"].items():
+        if liebody.methods()[m].family == "baseline":
+            continue
+        st = C.style(m)
+        x, y = _energy_curve(rows_of(d["sweep"]))
+        keep = (x >= lo - 1e-9) & (x <= hi + 1e-9)
+        if np.all(np.isnan(y[keep])):
+            continue
+        ax_z.semilogy(x[keep], y[keep], lw=1.2, **(st | {"ms": 2.5}))
+        pk = d["resonance_peak"]
+        if pk["x"] is not None and lo <= pk["x"] <= hi:
+            ax_z.plot(pk["x"], pk["max_rel_energy_error"], marker="o", ms=9, mfc="none",
+                      mec=st["color"], mew=1.5, ls="none")
+    ax_z.axvline(2 * math.pi, color="k", lw=0.8, ls=":")
+    ax_z.text(2 * math.pi, 0.3, "h ω_nut = 2π ", fontsize=8, rotation=90, ha="right",
+              va="center", transform=ax_z.get_xaxis_transform())
+    ax_z.set_xlim(lo, hi)
+    ax_z.set_xlabel("h ω_nut [rad] (linear)")
+    ax_z.set_ylabel("max |E/E₀ − 1| [–]")
+    ax_z.set_title("(b) zoom: step-size resonance of the\nkick–drift splittings (○: peak)",
+                   fontsize=9.5)
+    ax_z.legend(fontsize=7, loc="lower right")
+    ax_z.grid(True, which="both", alpha=0.25)
 
+    # (c) gimbal lock
     g = summary["gimbal_lock"]
     th = np.array(g["theta_min"])
-    shades = ["-", "--", ":"]
+    styles = ["-", "--", ":"]
     for i, run_ in enumerate(g["runs"]):
-        ls = shades[i % len(shades)]
+        ls = styles[i % len(styles)]
         ea = np.array([math.pi if e is None else e for e in run_["euler_angles_rk4"]])
         ax_c.loglog(th, np.maximum(ea, _FLOOR), color="#d62728", marker="s", ms=4, ls=ls,
                     label=f"RK4 on Euler angles (φ, θ, ψ), h = {run_['h']:g}")
         ax_c.loglog(th, np.maximum(run_["quaternion_rk4"], _FLOOR), color="k", marker="o",
                     ms=4, ls=ls, label=f"RK4 on quaternions (liebody rk4), h = {run_['h']:g}")
+    first = g["runs"][0]["euler_angles_rk4"][0]
+    if first is not None and len(th) > 1:
+        guide = th[th >= th[0] / 30]
+        ax_c.loglog(guide, 30 * first * (guide / th[0]) ** -3, color="0.4", lw=1.0, ls=":",
+                    label="slope guide ∝ θ_min⁻³")
     ax_c.invert_xaxis()
     ax_c.set_xlabel("closest approach to gimbal lock θ_min (z-x-z) [rad]")
-    ax_c.set_ylabel("orientation error at T, angle to exact rotation [rad]")
+    ax_c.set_ylabel("orientation error at T, angle to the exact rotation [rad]")
     ax_c.set_title(f"(c) Euler angles near gimbal lock: free symmetric body "
-                   f"I = {tuple(g['moments'])}\nT = {g['runs'][0]['T']:.4g} "
+                   f"I = {tuple(g['moments'])},\nT = {g['runs'][0]['T']:.4g} "
                    f"(two close approaches), same RK4 and step for both", fontsize=9.5)
-    ax_c.legend(fontsize=7.5, loc="upper left")
+    ax_c.legend(fontsize=7.5, loc="lower right", bbox_to_anchor=(1.0, 0.08))
     ax_c.grid(True, which="both", alpha=0.25)
 
     fig.suptitle("Stability: where each method fails", fontsize=13)
@@ -708,7 +771,13 @@ def report(summary: dict) -> str:
     lines.append(f"== (c) gimbal lock: orientation error at T [rad], RK4 on Euler angles vs "
                  f"RK4 on quaternions (I = {tuple(g['moments'])})")
     for run_ in g["runs"]:
-        lines.append(f"   h = {run_['h']:g}, {run_['steps']} steps, T = {run_['T']:.4g}")
+        pk = run_["euler_angles_peak"]
+        slope = _fmt(run_["euler_angles_slope_first_decade"], ".2f")
+        lines.append(f"   h = {run_['h']:g}, {run_['steps']} steps, T = {run_['T']:.4g}: "
+                     f"Euler-angle error ~ theta_min^{slope} "
+                     f"over the first decade, largest {_fmt(pk and pk['error'], '.2e')} at "
+                     f"theta_min = {_fmt(pk and pk['theta_min'], '.2e')}; quaternions at most "
+                     f"{run_['quaternion_max_error']:.2e}")
         for th, ea, eq in zip(g["theta_min"], run_["euler_angles_rk4"], run_["quaternion_rk4"],
                               strict=True):
             lines.append(f"     theta_min = {th:8.2e}: Euler angles {_fmt(ea, '9.2e')}, "
