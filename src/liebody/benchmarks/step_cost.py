@@ -126,19 +126,20 @@ for name in sys.argv[4:]:
 print(json.dumps(out))
 """
 
-# The import-time commands, timed as whole processes (wall clock, from outside).
+# The import-time commands, timed as whole processes (wall clock, from outside); each but
+# the baseline also prints its own in-process time(s) from just before ``import liebody``.
+_T0 = "import time\nt0 = time.perf_counter()\nimport liebody\n"
 _IMPORT_COMMANDS = {
     "baseline": "pass",
-    "import": "import liebody",
-    "integrate_attr": "import liebody; liebody.integrate",
-    "first_call": (
-        "import time, liebody\n"
+    "import": _T0 + "print(time.perf_counter() - t0)\n",
+    "integrate_attr": _T0 + "liebody.integrate\nprint(time.perf_counter() - t0)\n",
+    "first_call": _T0 + (
         "f = liebody.integrate\n"
         "s = liebody.FreeBody(liebody.RigidBody([2.0, 1.0, 2.0 / 3.0], check_triangle=False))\n"
         "t = time.perf_counter()\n"
         "f(s, L0=[0.4535961214255773, 0.0, 0.8912073600614354], dt=0.01, steps=10,"
         " method='splitting2')\n"
-        "print(time.perf_counter() - t)\n"),
+        "print(time.perf_counter() - t0, time.perf_counter() - t)\n"),
 }
 
 
@@ -317,7 +318,11 @@ def first_calls(cache_dir: Path, cfg: dict) -> dict:
     wall = time.perf_counter() - t0
     if res.returncode != 0:
         return {"error": res.stderr.strip()[-500:], "process_wall_s": wall}
-    out = json.loads(res.stdout.strip().splitlines()[-1])
+    try:
+        out = json.loads(res.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        return {"error": f"unreadable output: {res.stdout.strip()[-500:]!r}",
+                "process_wall_s": wall}
     out["process_wall_s"] = wall
     out["total_s"] = out["setup_s"] + sum(
         v for row in out["methods"].values() for k, v in row.items()
@@ -352,15 +357,18 @@ def _compile_note(empty: dict, cached: dict) -> str:
 
 
 def import_times(cache_dir: Path, cfg: dict) -> dict:
-    """Medians of whole-process wall times of the :data:`_IMPORT_COMMANDS`.
+    """Import and first-call times of fresh processes (:data:`_IMPORT_COMMANDS`).
 
-    The commands are run round-robin ``cfg["import_repeat"]`` times (with the cache in
-    ``cache_dir``, filled by :func:`compile_times`); each median except the baseline's
-    is reported less the baseline's.
+    The commands are run round-robin ``cfg["import_repeat"]`` times with the cache in
+    ``cache_dir`` (filled by :func:`compile_times`). Reported: the median whole-process
+    wall time of each, less the median of a bare ``python -c pass``, and the median
+    in-process time from just before ``import liebody`` (the wall-time differences are
+    noisier: a few ms of import drown in the interpreter's start-up).
     """
     env = _child_env(cache_dir)
     walls: dict[str, list[float]] = {k: [] for k in _IMPORT_COMMANDS}
-    first_in_process: list[float] = []
+    inside: dict[str, list[float]] = {k: [] for k in _IMPORT_COMMANDS if k != "baseline"}
+    first_call_alone: list[float] = []
     errors = {}
     for _ in range(cfg["import_repeat"]):
         for key, code in _IMPORT_COMMANDS.items():
@@ -370,21 +378,36 @@ def import_times(cache_dir: Path, cfg: dict) -> dict:
             walls[key].append(time.perf_counter() - t0)
             if res.returncode != 0:
                 errors[key] = res.stderr.strip()[-500:]
-            elif key == "first_call":
-                first_in_process.append(float(res.stdout.strip().splitlines()[-1]))
-    med = {k: statistics.median(v) for k, v in walls.items()}
-    base = med["baseline"]
+            elif key != "baseline":
+                try:
+                    nums = [float(v) for v in res.stdout.strip().splitlines()[-1].split()]
+                except (ValueError, IndexError):
+                    errors[key] = f"unreadable output: {res.stdout.strip()[-500:]!r}"
+                    continue
+                inside[key].append(nums[0])
+                if key == "first_call":
+                    first_call_alone.append(nums[1])
+
+    def med(v: list[float]) -> float | None:
+        return statistics.median(v) if v else None
+
+    base = med(walls["baseline"])
+    less_base = {k: med(v) - base for k, v in walls.items() if k != "baseline"}
+    in_proc = {k: med(v) for k, v in inside.items()}
     out = {
         "repeat": cfg["import_repeat"],
         "python_startup_s": base,
-        "import_liebody_s": med["import"] - base,
-        "import_and_integrate_attr_s": med["integrate_attr"] - base,
-        "first_integrate_warm_cache_s": med["first_call"] - base,
-        "first_integrate_call_in_process_s": (statistics.median(first_in_process)
-                                              if first_in_process else None),
+        "import_liebody_s": less_base["import"],
+        "import_and_integrate_attr_s": less_base["integrate_attr"],
+        "first_integrate_warm_cache_s": less_base["first_call"],
+        "in_process_s": {"import_liebody": in_proc["import"],
+                         "import_and_integrate_attr": in_proc["integrate_attr"],
+                         "import_to_first_integrate_done": in_proc["first_call"],
+                         "first_integrate_call_alone": med(first_call_alone)},
         "process_walls_s": walls,
-        "note": "whole-process wall times, medians, less a bare 'python -c pass'; the first "
-                "call is splitting2 on the HLW body, 10 steps, cache filled",
+        "note": "process wall times (medians) less a bare 'python -c pass', and in-process "
+                "times from just before 'import liebody'; the first call is splitting2 on "
+                "the HLW body, 10 steps, with the numba cache full",
     }
     if errors:
         out["errors"] = errors
@@ -527,8 +550,7 @@ def plot(summary: dict, path: Path) -> None:
     shown: list[float] = []
     for k, (key, label, colour) in enumerate(
             (("free", summary["problems"]["free"]["title"], "#1f77b4"),
-             ("top", summary["problems"]["top"]["title"].split(",")[0] + " (heavy top)",
-              "#ff7f0e"))):
+             ("top", summary["problems"]["top"]["title"].split(",")[0], "#ff7f0e"))):
         vals = []
         for name in names:
             r = summary["methods"][name][key]
@@ -553,6 +575,9 @@ def plot(summary: dict, path: Path) -> None:
                    label=f"C gcc -O3 splitting2 (HLW): {c['ns']['median']:.0f} ns")
         ax.axvline(TARGET_RATIO * c["ns"]["median"], color="0.5", lw=0.8, ls=":",
                    label=f"target: {TARGET_RATIO}x C")
+    else:
+        ax.text(0.99, 0.01, f"no C reference: {c.get('note', '')[:60]}", ha="right",
+                va="bottom", fontsize=7, color="0.4", transform=ax.transAxes)
     ax.set_xscale("log")
     ax.set_yticks(y)
     ax.set_yticklabels([n + (" (per sample)" if summary["methods"][n]["free"].get("per")
@@ -560,9 +585,9 @@ def plot(summary: dict, path: Path) -> None:
     ax.invert_yaxis()
     ax.set_xlabel(f"wall time per step [ns] (median of {cfg['repeat']} runs of up to "
                   f"{cfg['steps']:.0e} steps)")
-    ax.set_title("Cost per step through integrate()", fontsize=11)
+    ax.set_title("Cost per step through integrate()", fontsize=11, pad=48)
     ax.grid(True, axis="x", which="both", alpha=0.25)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2)
     shown += [c["ns"]["median"]] if c.get("ns") else []
     if shown:
         ax.set_xlim(10.0 ** np.floor(np.log10(min(shown))), max(shown) * 2.5)
@@ -573,13 +598,14 @@ def plot(summary: dict, path: Path) -> None:
     ok = all("methods" in comp.get(p, {}) for p in ("empty", "cached"))
     if ok:
         yc = np.arange(len(names) + 1)
-        for k, (phase, colour) in enumerate((("empty", "#d62728"), ("cached", "#2ca02c"))):
+        for k, (phase, word, colour) in enumerate((("empty", "empty", "#d62728"),
+                                                   ("cached", "full", "#2ca02c"))):
             tot = comp[phase]["total_s"]
             vals = [comp[phase]["setup_s"]] + [
                 sum(v for kk, v in comp[phase]["methods"][n].items()
                     if kk in ("free", "top") and v is not None) for n in names]
             axc.barh(yc - bar_h / 2 + k * bar_h, vals, height=bar_h, color=colour,
-                     label=f"{phase} cache: {tot:.2f} s in all "
+                     label=f"cache {word}: {tot:.2f} s in all "
                            f"(whole process {comp[phase]['process_wall_s']:.1f} s)")
         axc.set_xscale("log")
         axc.set_yticks(yc)
@@ -597,31 +623,42 @@ def plot(summary: dict, path: Path) -> None:
     # import times
     axi = fig.add_subplot(grid[1, 1])
     imp = summary["import"]
-    items = [("python -c pass (subtracted)", imp.get("python_startup_s")),
-             ("import liebody", imp.get("import_liebody_s")),
-             ("+ liebody.integrate (loads numba)", imp.get("import_and_integrate_attr_s")),
-             ("+ first integrate(), cache warm", imp.get("first_integrate_warm_cache_s"))]
+    ip = imp.get("in_process_s", {})
+    items = [("python -c pass, whole process\n(for scale)", imp.get("python_startup_s")),
+             ("import liebody", ip.get("import_liebody")),
+             ("import liebody; liebody.integrate\n(loads numba)",
+              ip.get("import_and_integrate_attr")),
+             ("... + first integrate(), cache full", ip.get("import_to_first_integrate_done"))]
     labels = [lab for lab, v in items]
     vals = [np.nan if v is None else max(v, 1e-4) for _, v in items]
     yi = np.arange(len(items))
     axi.barh(yi, vals, color=["0.7", "#9467bd", "#8c564b", "#e377c2"])
     for p, v in zip(yi, vals, strict=True):
         if np.isfinite(v):
-            axi.text(v * 1.05, p, f"{1e3 * v:.0f} ms", va="center", fontsize=8)
+            axi.text(v * 1.05, p, _fmt_seconds(v), va="center", fontsize=8)
     axi.set_yticks(yi)
     axi.set_yticklabels(labels, fontsize=8)
     axi.invert_yaxis()
     axi.set_xscale("log")
     axi.set_xlim(right=max([v for v in vals if np.isfinite(v)] + [1e-3]) * 3)
-    axi.set_xlabel(f"process wall time less python startup [s] (median of "
-                   f"{cfg['import_repeat']})")
-    axi.set_title("Import: whole fresh processes", fontsize=10)
+    axi.set_xlabel(f"time from just before 'import liebody' [s]\n(in-process, median of "
+                   f"{cfg['import_repeat']} fresh processes)")
+    axi.set_title("Import and first call in a fresh process", fontsize=10)
     axi.grid(True, axis="x", which="both", alpha=0.25)
     fig.suptitle("liebody step cost, compile and import times")
     C.finish_figure(fig, path)
 
 
 # ---------------------------------------------------------------------------- report
+
+
+def _fmt_seconds(v: float) -> str:
+    """``1.23 s``, ``456 ms`` or ``7.8 ms``."""
+    if abs(v) >= 1.0:
+        return f"{v:.2f} s"
+    if abs(v) >= 0.01:
+        return f"{1e3 * v:.0f} ms"
+    return f"{1e3 * v:.1f} ms"
 
 
 def report(summary: dict) -> str:
@@ -685,15 +722,24 @@ def report(summary: dict) -> str:
                 lines.append(f"{p} cache: failed: {comp[p]['error']}")
 
     imp = summary["import"]
-    lines.append(f"== import (median of {imp['repeat']} fresh processes, less "
-                 f"python -c pass = {1e3 * imp['python_startup_s']:.0f} ms)")
-    lines.append(f"import liebody: {1e3 * imp['import_liebody_s']:.0f} ms; "
-                 f"+ liebody.integrate (numba): {1e3 * imp['import_and_integrate_attr_s']:.0f} "
-                 f"ms; + first integrate() from a warm cache: "
-                 f"{1e3 * imp['first_integrate_warm_cache_s']:.0f} ms (the call itself "
-                 + ("?" if imp["first_integrate_call_in_process_s"] is None else
-                    f"{1e3 * imp['first_integrate_call_in_process_s']:.0f}")
-                 + " ms in-process)")
+    ip = imp["in_process_s"]
+
+    def ms(v: float | None) -> str:
+        return "?" if v is None else _fmt_seconds(v)
+
+    lines.append(f"== import: medians of {imp['repeat']} fresh processes, in-process time from "
+                 f"just before 'import liebody' [in brackets: process wall time less that of "
+                 f"python -c pass, {ms(imp['python_startup_s'])}]")
+    lines.append(f"import liebody: {ms(ip['import_liebody'])} "
+                 f"[{ms(imp['import_liebody_s'])}]")
+    lines.append(f"import liebody; liebody.integrate (loads numba): "
+                 f"{ms(ip['import_and_integrate_attr'])} "
+                 f"[{ms(imp['import_and_integrate_attr_s'])}]")
+    lines.append(f"... and the first integrate() (splitting2, 10 steps, cache full): "
+                 f"{ms(ip['import_to_first_integrate_done'])} "
+                 f"[{ms(imp['first_integrate_warm_cache_s'])}], of which the call itself "
+                 f"{ms(ip['first_integrate_call_alone'])} (mostly numba's one-off start-up, "
+                 f"not the cache load: see the compile table)")
     if imp.get("errors"):
         lines.append(f"import errors: {imp['errors']}")
     lines.append(f"(ran in {summary['runtime_s']:.0f} s)")
