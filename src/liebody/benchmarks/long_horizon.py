@@ -196,8 +196,7 @@ def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
         summary["problems"][key] = {
             "title": pb.title, "h": h, "h_omega0": h * pb.omega_max,
             "momentum_invariant": "|L|" if pb.free else "L_z (space)",
-            "curves": {label: {k: (v.tolist() if isinstance(v, np.ndarray) else v)
-                               for k, v in res.items()} for label, res in curves.items()},
+            "curves": {label: envelope(res) for label, res in curves.items()},
             "final": {label: _final(res) for label, res in curves.items()},
         }
     C.write_json(out / f"{NAME}.json", summary)
@@ -207,6 +206,27 @@ def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
                 csv_rows)
     plot(summary, out / f"{NAME}.png")
     return summary
+
+
+def envelope(res: dict, points: int = 400) -> dict:
+    """A curve as stored and plotted: the worst value so far of each quantity, at up to
+    ``points`` log-spaced times (the raw samples run to tens of thousands)."""
+    t = np.asarray(res["t"], dtype=float)
+    keep = t > 0
+    out = {k: v for k, v in res.items() if not isinstance(v, np.ndarray)}
+    if not keep.any():
+        out.update(t=[], energy=[], qnorm=[], momentum=[])
+        return out
+    t = t[keep]
+    grid = np.unique(np.searchsorted(t, np.geomspace(t[0], t[-1], points), side="left"))
+    grid = grid[grid < len(t)]
+    out["t"] = t[grid].tolist()
+    for k in ("energy", "qnorm", "momentum"):
+        v = np.asarray(res[k], dtype=float)[keep]
+        finite = np.where(np.isfinite(v), v, np.inf)
+        worst = np.maximum.accumulate(finite)  # inf from the first non-finite sample on
+        out[k] = worst[grid].tolist()
+    return out
 
 
 def _final(res: dict) -> dict:
@@ -242,7 +262,7 @@ def plot(summary: dict, path: Path) -> None:
                 sel = (t > 0) & np.isfinite(v)
                 if not sel.any():
                     continue
-                y = np.maximum.accumulate(np.maximum(v[sel], 1e-17))
+                y = np.maximum(v[sel], 1e-17)
                 st = C.style(label)
                 st.pop("marker")
                 ax.loglog(t[sel], y, **st, lw=1.2)
