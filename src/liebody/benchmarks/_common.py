@@ -6,6 +6,7 @@ Nothing here is imported by the library itself; the benchmarks are run by
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import csv
 import datetime
@@ -345,3 +346,20 @@ def progress(iterable, desc: str, enabled: bool, total: int | None = None):
     from tqdm.auto import tqdm
 
     return tqdm(iterable, desc=desc, total=total, leave=False)
+
+
+def command_line(doc: str, run: Callable[..., dict], report: Callable[[dict], str],
+                 argv: list[str] | None, extra: Callable | None = None) -> int:
+    """The shared command line of the benchmark modules (``--quick``, ``--out``,
+    ``--no-progress``, plus what ``extra(parser)`` adds, passed on to ``run`` by name)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="short horizons and few points (what CI runs)")
+    parser.add_argument("--out", default="bench/results", help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    if extra is not None:
+        extra(parser)
+    args = vars(parser.parse_args(argv))
+    out, quick, show = Path(args.pop("out")), args.pop("quick"), not args.pop("no_progress")
+    print(report(run(out, quick, show, **args)))
+    return 0

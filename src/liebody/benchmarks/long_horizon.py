@@ -22,7 +22,6 @@ Run ``python -m liebody bench --only long_horizon [--quick]``.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -298,13 +297,8 @@ def report(summary: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--out", default="bench/results")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
-    print(report(run(Path(args.out), args.quick, not args.no_progress)))
-    return 0
+    """Command line: measure, write the files and print :func:`report`."""
+    return C.command_line(__doc__, run, report, argv)
 
 
 if __name__ == "__main__":

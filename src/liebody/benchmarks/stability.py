@@ -68,7 +68,6 @@ Run ``python -m liebody bench --only stability [--quick]`` or
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -787,14 +786,8 @@ def report(summary: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="coarse sweeps (about 15 s)")
-    parser.add_argument("--out", default="bench/results", help="output folder")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
-    summary = run(Path(args.out), args.quick, not args.no_progress)
-    print(report(summary))
-    return 0
+    """Command line: measure, write the files and print :func:`report`."""
+    return C.command_line(__doc__, run, report, argv)
 
 
 if __name__ == "__main__":

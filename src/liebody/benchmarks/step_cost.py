@@ -29,7 +29,6 @@ Run ``python -m liebody.benchmarks.step_cost [--quick] [--steps N]`` or
 
 from __future__ import annotations
 
-import argparse
 import ctypes
 import json
 import os
@@ -748,16 +747,12 @@ def report(summary: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Command line: measure, write the files and print :func:`report`."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
-    parser.add_argument("--out", default="bench/results", help="output folder")
-    parser.add_argument("--no-progress", action="store_true")
-    parser.add_argument("--steps", type=int, default=None,
-                        help="steps per timed run (default 2e6, 2e5 with --quick)")
-    args = parser.parse_args(argv)
-    summary = run(Path(args.out), args.quick, not args.no_progress, args.steps)
-    print(report(summary))
-    return 0
+
+    def extra(parser):
+        parser.add_argument("--steps", type=int, default=None,
+                            help="steps per timed run (default 2e6, 2e5 with --quick)")
+
+    return C.command_line(__doc__, run, report, argv, extra)
 
 
 if __name__ == "__main__":

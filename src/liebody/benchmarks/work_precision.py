@@ -32,7 +32,6 @@ Run ``python -m liebody bench --only work_precision [--quick]`` or
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -161,11 +160,16 @@ def _row(problem, T, method, source, setting, steps, wall, err, dE, note="", hor
 # --------------------------------------------------------------------------- peer runs
 
 
+def _peer_horizons(cfg: dict, refs: dict):
+    """(T, reference state, time budget per run) for the short and the long horizon."""
+    return ((cfg["T_short"], refs["short"], cfg["cap_peer"] / 10),
+            (cfg["T_long"], refs["long"], cfg["cap_peer"]))
+
+
 def scipy_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dict]:
     rows = []
     label = f"scipy {method}"
-    for T, (q_r, L_r), cap in ((cfg["T_short"], refs["short"], cfg["cap_peer"] / 10),
-                               (cfg["T_long"], refs["long"], cfg["cap_peer"])):
+    for T, (q_r, L_r), cap in _peer_horizons(cfg, refs):
         predicted_per_time = 0.0
         for rtol in cfg["rtols"]:
             if predicted_per_time * T > cap:
@@ -190,8 +194,7 @@ def scipy_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dict]
 def mujoco_ladder(problem, integrator: str, cfg: dict, refs: dict, bar) -> list[dict]:
     rows = []
     label = f"MuJoCo {integrator}"
-    for T, (q_r, L_r), cap in ((cfg["T_short"], refs["short"], cfg["cap_peer"] / 10),
-                               (cfg["T_long"], refs["long"], cfg["cap_peer"])):
+    for T, (q_r, L_r), cap in _peer_horizons(cfg, refs):
         for h in cfg["mujoco_h"]:
             n = round(T / h)
             run = P.MujocoRun(problem, integrator, h)
@@ -429,16 +432,13 @@ def plot(summary: dict, path: Path, cfg: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="short horizons, few points")
-    parser.add_argument("--out", default="bench/results", help="output folder")
-    parser.add_argument("--problem", action="append", choices=sorted(C.problems()),
-                        help="run only this problem (repeatable)")
-    parser.add_argument("--no-progress", action="store_true")
-    args = parser.parse_args(argv)
-    summary = run(Path(args.out), args.quick, not args.no_progress, args.problem)
-    print(report(summary))
-    return 0
+    """Command line: measure, write the files and print :func:`report`."""
+
+    def extra(parser):
+        parser.add_argument("--problem", dest="problem_keys", action="append",
+                            choices=sorted(C.problems()), help="only this problem (repeatable)")
+
+    return C.command_line(__doc__, run, report, argv, extra)
 
 
 def report(summary: dict) -> str:
