@@ -37,6 +37,7 @@ __all__ = [
     "normalize",
     "random",
     "rotate",
+    "rotate_inverse",
     "slerp",
     "to_matrix",
     "to_rotation",
@@ -109,6 +110,23 @@ def rotate(q: ArrayLike, v: ArrayLike) -> Array:
     out = np.empty_like(b)
     _k.rotate_rows(a, b, out)
     return out.reshape(batch + (3,))
+
+
+def rotate_inverse(q: ArrayLike, v: ArrayLike) -> Array:
+    """Rotate vectors back: ``R(q)^T v`` (space to body when ``v`` is in space coordinates).
+
+    For example ``rotate_inverse(q, [0, 0, 1])`` is the space vertical ``e_z`` seen from
+    the body, the direction gravity acts along in a heavy top's body frame.
+
+    Parameters
+    ----------
+    q
+        Unit quaternions ``(..., 4)``; ``| |q| - 1 | <= 1e-10`` is required.
+    v
+        Vectors ``(..., 3)``, broadcast against ``q``.
+    """
+    q = as_unit_quaternion("q", q)
+    return rotate(q * np.array([1.0, -1.0, -1.0, -1.0]), v)
 
 
 def to_matrix(q: ArrayLike) -> Array:

@@ -116,7 +116,7 @@ import numpy as np
 from numba import njit
 
 from .elliptic import carlson_rf, carlson_rj, landen_chain, landen_eval, landen_k
-from .quat import qaxis_rotation, qexp, qmul
+from .quat import component, qaxis_rotation, qexp, qmul
 
 #: Relative tolerance under which two moments count as equal (symmetric-body branch).
 #: The symmetric formulas then err by ~SYM_RTOL |omega t|, below the t*eps phase error.
@@ -159,15 +159,6 @@ def _cross_axis(ax, x, y, z):
 
 
 @njit(cache=True)
-def _get3(ax, x, y, z):
-    if ax == 0:
-        return x
-    elif ax == 1:
-        return y
-    return z
-
-
-@njit(cache=True)
 def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     """Per-trajectory constants: ``(head, ks, kcs)``; see the module docstring.
 
@@ -204,7 +195,7 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
             ax, ip_, is_ = 1, 0.5 * (I1 + I3), I2
         else:
             ax, ip_, is_ = 0, 0.5 * (I2 + I3), I1
-        ms = _get3(ax, m1, m2, m3)
+        ms = component(ax, m1, m2, m3)
         rate = ms * (1.0 / is_ - 1.0 / ip_)
         return _head(K_SYMMETRIC, g, qw, qx, qy, qz, m1, m2, m3, m1 / ip_, m2 / ip_, m3 / ip_,
                      float(ax), rate), ks, kcs
@@ -224,12 +215,12 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
         else:
             i1, i2, i3 = 2, 1, 0
     eps = 1.0 if (i2 - i1) % 3 == 1 else -1.0  # cyclic (even) permutation or not
-    A1 = _get3(i1, I1, I2, I3)
-    A2 = _get3(i2, I1, I2, I3)
-    A3 = _get3(i3, I1, I2, I3)
-    x1 = _get3(i1, m1, m2, m3) / g
-    x2 = eps * _get3(i2, m1, m2, m3) / g
-    x3 = _get3(i3, m1, m2, m3) / g
+    A1 = component(i1, I1, I2, I3)
+    A2 = component(i2, I1, I2, I3)
+    A3 = component(i3, I1, I2, I3)
+    x1 = component(i1, m1, m2, m3) / g
+    x2 = eps * component(i2, m1, m2, m3) / g
+    x3 = component(i3, m1, m2, m3) / g
     I21 = A2 - A1
     I31 = A3 - A1
     I32 = A3 - A2

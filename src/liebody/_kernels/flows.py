@@ -17,6 +17,7 @@ import math
 from numba import njit
 
 from liebody._kernels.quat import (
+    component,
     qaxis_rotation,
     qexp,
     qexp_increment,
@@ -33,16 +34,6 @@ DMV_MAX_NEWTON = 30
 DMV_CONTINUATION = 32
 
 
-@njit(cache=True, inline="always")
-def _component(m1, m2, m3, axis):
-    """``m[axis]`` of a state kept in scalars."""
-    if axis == 0:
-        return m1
-    if axis == 1:
-        return m2
-    return m3
-
-
 @njit(cache=True)
 def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     """Exact flow of ``H_k = rate * m_k^2 / 2`` for time ``tau`` (``k = axis``).
@@ -52,7 +43,7 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     sub-flow of the kinetic-energy term ``T_k`` (literature section 1.1). Keeps
     ``|m|``, spatial ``L = R(q) m`` exactly and ``|q|`` to round-off. One sin, one cos.
     """
-    half = 0.5 * tau * rate * _component(m1, m2, m3, axis)
+    half = 0.5 * tau * rate * component(axis, m1, m2, m3)
     s2 = math.sin(half)
     c2 = math.cos(half)
     c = 1.0 - 2.0 * s2 * s2
@@ -79,7 +70,7 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     :func:`~liebody._kernels.quat.qexp_increment`), which leaves a norm error of order
     ``eps sin^2``. Same sub-flow, a few more flops.
     """
-    half = 0.5 * tau * rate * _component(m1, m2, m3, axis)
+    half = 0.5 * tau * rate * component(axis, m1, m2, m3)
     s2 = math.sin(half)
     c2 = math.cos(half)
     cm2 = -s2 * s2 / (1.0 + c2) if c2 > 0.0 else c2 - 1.0

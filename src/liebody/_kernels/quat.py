@@ -52,6 +52,16 @@ def qrotate_inv(w, x, y, z, vx, vy, vz):
     return qrotate(w, -x, -y, -z, vx, vy, vz)
 
 
+@njit(cache=True, inline="always")
+def component(axis, x, y, z):
+    """``(x, y, z)[axis]`` for a vector kept in scalars (``axis`` in 0, 1, 2)."""
+    if axis == 0:
+        return x
+    if axis == 1:
+        return y
+    return z
+
+
 @njit(cache=True)
 def qexp(rx, ry, rz):
     """Unit quaternion of the rotation vector ``r`` (angle ``|r|`` about ``r/|r|``).

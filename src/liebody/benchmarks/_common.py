@@ -200,8 +200,7 @@ def state_error(problem: Problem, q, L, q_ref, L_ref) -> np.ndarray:
 # ---------------------------------------------------------------------------- references
 
 
-def reference(problem: Problem, times: np.ndarray, quick: bool = False
-              ) -> tuple[np.ndarray, np.ndarray, dict]:
+def reference(problem: Problem, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
     """Reference states at ``times`` (each a whole multiple of the smallest).
 
     Free bodies: the exact flow (Jacobi elliptic functions), itself checked in the tests
