@@ -1,12 +1,23 @@
-"""Shared fixtures: the standard test bodies of the literature (section 8)."""
+"""Shared fixtures. Tests are arranged by tier, one folder each:
+
+* ``kernels/`` — the numba kernels called directly (also run uncompiled in CI);
+* ``foundation/`` — quaternions, Euler angles, inertia, bodies, packaging;
+* ``methods/`` — the method catalogue, observed orders, invariants and failure modes,
+  generic over every registered method;
+* ``scenes/`` — torqued and damped scenes, and the rigid-body phenomena against their
+  closed forms (Hand & Finch, *Analytical Mechanics*, ch. 8);
+* ``bench/`` — the benchmark suite's smoke test.
+
+Helpers shared by several tiers live in ``support.py``.
+"""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from hypothesis import settings
 
 import liebody
+from support import HLW_L0, PHYSICAL_L0, hlw_body, physical_body
 
 # The first example of a property test may include compiling numba kernels (or
 # loading them from the cache): no per-example deadline.
@@ -14,34 +25,13 @@ settings.register_profile("liebody", deadline=None)
 settings.load_profile("liebody")
 
 
-def hlw_body() -> liebody.RigidBody:
-    """Hairer–Lubich–Wanner body ``I = (2, 1, 2/3)`` (breaks the triangle inequality)."""
-    return liebody.RigidBody([2.0, 1.0, 2.0 / 3.0], check_triangle=False)
-
-
-HLW_L0 = np.array([np.cos(1.1), 0.0, np.sin(1.1)])
-
-
-def physical_body() -> liebody.RigidBody:
-    """A real asymmetric body: a uniform 3 x 2 x 1 box of mass 1, axes in no special order."""
-    from liebody import inertia
-
-    return liebody.RigidBody(inertia.box(1.0, 3.0, 2.0, 1.0), mass=1.0)
-
-
-PHYSICAL_L0 = np.array([0.3, -0.2, 0.9])
-
-
 @pytest.fixture
 def hlw():
+    """Hairer, Lubich & Wanner's free body ``I = (2, 1, 2/3)``, ``L0 = (cos 1.1, 0, sin 1.1)``."""
     return liebody.FreeBody(hlw_body()), HLW_L0.copy()
 
 
 @pytest.fixture
 def physical():
+    """A uniform 3 x 2 x 1 box and an arbitrary ``L0``."""
     return liebody.FreeBody(physical_body()), PHYSICAL_L0.copy()
-
-
-def rotation_distance(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
-    """Max-norm distance between orientations, modulo the sign of the quaternion."""
-    return np.minimum(np.abs(q1 - q2).max(axis=-1), np.abs(q1 + q2).max(axis=-1))

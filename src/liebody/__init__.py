@@ -28,6 +28,8 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "euler": ("liebody.euler", None),
     "inertia": ("liebody.inertia", None),
     "RigidBody": ("liebody.body", "RigidBody"),
+    "Scene": ("liebody.scenes", "Scene"),
+    "Capabilities": ("liebody.scenes", "Capabilities"),
     "FreeBody": ("liebody.scenes", "FreeBody"),
     "HeavyTop": ("liebody.scenes", "HeavyTop"),
     "TorqueBody": ("liebody.scenes", "TorqueBody"),
@@ -38,7 +40,10 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "integrate": ("liebody._integrate", "integrate"),
     "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
-    "methods": ("liebody.registry", "methods"),
+    "methods": ("liebody._methods", "methods"),
+    "Method": ("liebody._methods", "Method"),
+    "Handles": ("liebody._methods", "Handles"),
+    "register": ("liebody._methods", "register"),
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
@@ -46,9 +51,16 @@ __all__ = sorted(_LAZY) + ["__version__"]
 if TYPE_CHECKING:  # pragma: no cover
     from liebody import analysis, bodies, euler, inertia, lagrange_top, quaternion  # noqa: F401
     from liebody._integrate import ConvergenceError, integrate  # noqa: F401
+    from liebody._methods import Handles, Method, methods, register  # noqa: F401
     from liebody.body import RigidBody  # noqa: F401
-    from liebody.registry import methods  # noqa: F401
-    from liebody.scenes import DampedBody, FreeBody, HeavyTop, TorqueBody  # noqa: F401
+    from liebody.scenes import (  # noqa: F401
+        Capabilities,
+        DampedBody,
+        FreeBody,
+        HeavyTop,
+        Scene,
+        TorqueBody,
+    )
     from liebody.trajectory import Trajectory  # noqa: F401
 
 

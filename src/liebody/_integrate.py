@@ -19,16 +19,15 @@ import warnings
 
 import numpy as np
 
-from liebody import registry as _registry
-from liebody._kernels.stages import STATUS_NO_CONVERGENCE, STATUS_OK
+from liebody import _methods
+from liebody._kernels import stages as S
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
-from liebody.scenes import DampedBody, FreeBody, HeavyTop, TorqueBody
+from liebody.scenes import Scene
 from liebody.trajectory import Trajectory
 
 __all__ = ["ConvergenceError", "integrate"]
 
-_SCENES = (FreeBody, HeavyTop, TorqueBody, DampedBody)
 _PROGRESS_CHUNKS = 200
 #: the most samples a run may keep (about 56 GB); beyond it save_every must grow
 MAX_SAMPLES = 10**9
@@ -104,9 +103,9 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     ConvergenceError
         ``rattle``'s implicit equation did not converge (step far too large).
     """
-    if not isinstance(scene, _SCENES):
-        raise TypeError(f"scene must be one of {[s.__name__ for s in _SCENES]}, "
-                        f"got {type(scene).__name__}")
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
+                        f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     body = scene.body
     q_init = _as_unit_q("q0", q0)
     if q_init.shape != (4,):
@@ -118,10 +117,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     if not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
 
-    method = _registry.get(scene.default_method if method is None else method)
-    if not method.supports(scene):
-        raise ValueError(f"method {method.name!r} cannot integrate a {type(scene).__name__}: "
-                         f"it supports {', '.join(method.scenes)}")
+    method = _methods.get(scene.default_method if method is None else method)
+    _methods.check_supports(method, scene)
 
     # sample indices: 0, save_every, 2 save_every, ..., and the final step
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
@@ -135,7 +132,7 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     step_index = np.minimum(np.arange(n_saves + 1, dtype=np.int64) * save_every, n_steps)
     t = step_index * dt
 
-    if method.family == "exact":
+    if method.sampled:
         from liebody._kernels.exact import exact_flow_times
 
         moments = np.ascontiguousarray(body.moments, dtype=np.float64)
@@ -150,16 +147,19 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
                 exact_flow_times(moments, q_init, m_init, t[sl], q_out[sl], m_out[sl])
         return Trajectory(t, q_out, m_out, scene, method, dt)
 
-    plan = _registry.plan(method, scene, m_init, dt)
+    plan = method.plan(scene, m_init, dt)
     steps_done, n_saved, status = _run(plan, dt, n_steps, save_every, q_init, m_init,
                                        q_out[1:], m_out[1:], progress,
-                                       scene.torque_callback())
-    if status == STATUS_NO_CONVERGENCE:
+                                       scene.torque_model().callback)
+    if status == S.STATUS_BAD_STAGE:  # pragma: no cover - a plan the family cannot run
+        raise RuntimeError(f"{method.name}: the plan holds a stage its driver family "
+                           f"{plan.family} does not run (a bug in its recipe)")
+    if status in (S.STATUS_NO_CONVERGENCE, S.STATUS_KICK_NO_CONVERGENCE):
         raise ConvergenceError(
             f"{method.name}: the implicit step equation did not converge at step "
             f"{steps_done} (t = {steps_done * dt:g}); reduce dt (h|omega| is too large)")
     failed_at = None
-    if status != STATUS_OK:
+    if status != S.STATUS_OK:
         failed_at = (steps_done + 1) * dt
         n_keep = 1 + n_saved
         q_out, m_out, t = q_out[:n_keep].copy(), m_out[:n_keep].copy(), t[:n_keep].copy()
@@ -175,7 +175,7 @@ def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress, 
     from liebody._kernels.driver import run
 
     state = np.concatenate([q_init, m_init])
-    args = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, dt)
+    args = (plan.family, plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, dt)
     if not progress:
         return run(*args, 0.0, n_steps, save_every, plan.merge_ends, state, q_out, m_out,
                    torque_fn)
@@ -192,6 +192,6 @@ def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress, 
             done += d
             saved += s
             bar.update(d)
-            if status != STATUS_OK:
+            if status != S.STATUS_OK:
                 return done, saved, status
-    return done, saved, STATUS_OK
+    return done, saved, S.STATUS_OK

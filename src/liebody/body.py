@@ -49,6 +49,24 @@ def _principal_axes(sym: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, V
 
 
+def _equalize(moments: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """The one policy for equal moments: snap moments within ``DEGENERACY_RTOL`` together.
+
+    Returns the moments with every group of equal ones replaced by its mean (so they are
+    exactly equal from here on) and the equal pairs. Two pairs equal make a sphere.
+    """
+    scale = float(np.max(moments))
+    equal = [(i, j) for i, j in ((0, 1), (0, 2), (1, 2))
+             if abs(moments[i] - moments[j]) <= DEGENERACY_RTOL * scale]
+    out = np.array(moments, dtype=np.float64)
+    if len(equal) >= 2:
+        out[:] = out.mean()
+    elif equal:
+        i, j = equal[0]
+        out[i] = out[j] = 0.5 * (out[i] + out[j])
+    return out, equal
+
+
 class RigidBody:
     """A rigid body described by its principal moments of inertia.
 
@@ -138,6 +156,7 @@ class RigidBody:
                 f"3x3 tensor, shape (3, 3); got shape {arr.shape}"
             )
         self._check_moments(moments, tensor_input, bool(check_triangle))
+        moments, equal = _equalize(moments)
 
         self._moments = _readonly(moments)
         self._axes = _readonly(axes)
@@ -145,12 +164,6 @@ class RigidBody:
         self._tensor = _readonly(0.5 * (t + t.T))
         self._mass = None if mass is None else as_positive_float("mass", mass)
 
-        scale = float(np.max(moments))
-        equal = [
-            (i, j)
-            for i, j in ((0, 1), (0, 2), (1, 2))
-            if abs(moments[i] - moments[j]) <= DEGENERACY_RTOL * scale
-        ]
         if len(equal) >= 2:
             self._symmetry_axis = None
             self._free_axes: tuple[int, ...] = (0, 1, 2)

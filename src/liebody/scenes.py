@@ -1,12 +1,38 @@
-"""Scenes: what is being integrated (a body and the forces on it).
+"""Scenes: what is integrated — a rigid body and what acts on it.
 
 A scene is modelled with no more than it needs: a :class:`FreeBody` has no torque
-kicks, and its default method is the exact flow evaluated at the output times.
+kicks and its default method is the exact flow; a symmetric body's splittings use the
+symmetric-body flow. Methods are matched to scenes by what the scene *declares*
+(its :class:`Capabilities`), never by its class name, so subclasses and new scenes
+work with every method that can handle them.
+
+The scene contract
+------------------
+Everything :func:`liebody.integrate` accepts is a :class:`Scene`. A scene provides
+
+* ``body`` — the :class:`~liebody.RigidBody` (principal frame = body frame);
+* ``capabilities`` — a :class:`Capabilities` record: what the torque depends on
+  (nothing, the orientation, the momentum, the time), whether it derives from a
+  potential (conservative), whether there is dissipation;
+* ``potential(q)`` — the potential energy at orientations ``q`` ``(..., 4)`` (zeros
+  when there is none), used by the energy diagnostics;
+* ``torque_model()`` — how the kernels evaluate the torque: a :class:`TorqueModel`
+  (none, uniform gravity, or a user's numba function through
+  :meth:`TorqueModel.user`);
+* ``dissipation`` — the strength ``eps`` of the double-bracket dissipation (0: none);
+* ``free_flow`` — the drift of the splittings for an asymmetric body (``"auto"``,
+  ``"axes"`` or ``"exact"``) and ``default_method``.
+
+The four scenes below implement it. The easy way to a new scene is a subclass of
+one of them (a gravity-gradient satellite is a :class:`TorqueBody` whose torque
+function is built in ``__init__``; a top with a different mass distribution is a
+:class:`HeavyTop`); a direct subclass of :class:`Scene` implements the members above.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -14,64 +40,168 @@ from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_NONE, TORQUE_USER
 from liebody._validate import as_float_array, as_positive_float
 from liebody.body import RigidBody
 
+__all__ = ["Capabilities", "DampedBody", "FreeBody", "HeavyTop", "Scene", "TorqueBody",
+           "TorqueModel"]
+
+#: what a torque may depend on
+DEPENDENCIES = ("time", "orientation", "momentum")
+#: drifts of the splittings for an asymmetric body
+FREE_FLOWS = ("auto", "axes", "exact")
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a scene needs from a method.
+
+    Attributes
+    ----------
+    torque : frozenset of str
+        What the torque depends on, a subset of ``{"time", "orientation",
+        "momentum"}``; empty for a torque-free body.
+    conservative : bool
+        The torque derives from a potential of the orientation alone, so the total
+        energy is conserved (true for a free body).
+    dissipative : bool
+        The scene dissipates energy internally (:class:`DampedBody`).
+    """
+
+    torque: frozenset = frozenset()
+    conservative: bool = True
+    dissipative: bool = False
+
+    def __post_init__(self) -> None:
+        torque = frozenset(self.torque)
+        unknown = torque - set(DEPENDENCIES)
+        if unknown:
+            raise ValueError(f"torque dependencies must be among {DEPENDENCIES}, "
+                             f"got {sorted(unknown)}")
+        object.__setattr__(self, "torque", torque)
+        if self.dissipative and self.conservative:
+            raise ValueError("a dissipative scene is not conservative")
+
+    @property
+    def free(self) -> bool:
+        """No torque and no dissipation: the free rigid body."""
+        return not self.torque and not self.dissipative
+
+    def describe(self) -> str:
+        """Words for error messages and tables, e.g. ``"torque(t, q, L)"``."""
+        if self.free:
+            return "no torque"
+        parts = []
+        if self.torque:
+            args = [a for a, d in (("t", "time"), ("q", "orientation"), ("L", "momentum"))
+                    if d in self.torque]
+            parts.append(f"torque({', '.join(args)})")
+        if self.dissipative:
+            parts.append("dissipation")
+        return " and ".join(parts)
+
+
+@dataclass(frozen=True)
+class TorqueModel:
+    """How the kernels evaluate a scene's torque (part of the scene contract).
+
+    ``code`` is one of the kernel torque codes (none, uniform gravity, user
+    callback), ``constants`` the gravity constants ``M g cm`` (body frame), and
+    ``callback`` the compiled C callback of a user torque. Build one with
+    :meth:`none`, :meth:`gravity` or :meth:`user`.
+    """
+
+    code: int = TORQUE_NONE
+    constants: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    callback: object = None
+
+    @classmethod
+    def none(cls) -> TorqueModel:
+        return cls()
+
+    @classmethod
+    def gravity(cls, weight_arm) -> TorqueModel:
+        """Uniform gravity ``-g e_z`` on a body whose ``M g cm`` is ``weight_arm``."""
+        return cls(TORQUE_GRAVITY, tuple(float(v) for v in weight_arm))
+
+    @classmethod
+    def user(cls, torque) -> TorqueModel:
+        """A numba ``@njit`` function ``torque(t, q, L) -> (3,)`` (compiled once per process)."""
+        return cls(TORQUE_USER, callback=_callback(torque))
+
+
+class Scene:
+    """Base class of the scenes; see the module docstring for the contract."""
+
+    default_method: ClassVar[str] = "splitting2"
+    body: RigidBody
+    free_flow: str = "auto"
+
+    @property
+    def capabilities(self) -> Capabilities:  # pragma: no cover - abstract
+        raise NotImplementedError(f"{type(self).__name__} must define capabilities")
+
+    @property
+    def moments(self) -> np.ndarray:
+        return self.body.moments
+
+    @property
+    def dissipation(self) -> float:
+        """Strength ``eps`` of the internal dissipation (0 for none)."""
+        return 0.0
+
+    def potential(self, q: np.ndarray) -> np.ndarray:
+        """Potential energy at orientations ``q`` ``(..., 4)``; zero unless overridden."""
+        return np.zeros(np.shape(q)[:-1])
+
+    def torque_model(self) -> TorqueModel:
+        """How the kernels evaluate the torque (none unless overridden)."""
+        return TorqueModel.none()
+
+
+def _init_body(scene: Scene, body, free_flow: str) -> None:
+    """Shared constructor part: the body and the drift choice."""
+    if not isinstance(body, RigidBody):
+        raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
+    if free_flow not in FREE_FLOWS:
+        raise ValueError(f"free_flow must be one of {FREE_FLOWS}, got {free_flow!r}")
+    object.__setattr__(scene, "body", body)
+    object.__setattr__(scene, "free_flow", free_flow)
+
 
 @dataclass(frozen=True, eq=False)
-class FreeBody:
-    """A torque-free rigid body (reference text, "The Force-Free Symmetric Top" and
-    "Stability of Axes"; Euler's equations with ``N = 0``).
+class FreeBody(Scene):
+    """A torque-free rigid body: Euler's equations with ``N = 0`` (Hand & Finch,
+    *Analytical Mechanics*, ch. 8: the force-free symmetric top, stability of rotation
+    about the principal axes).
 
     Invariants: kinetic energy ``T = sum L_i^2 / (2 I_i)``, ``|L|`` and the spatial
     angular momentum ``L_space = R(q) L``.
 
     Default method: ``"exact"``. The free body is integrable, so the exact flow
     (trig functions for a symmetric body, Jacobi elliptic functions otherwise) is
-    evaluated directly at the output times: no time stepping is wasted and there is
+    evaluated directly at the output times: no time stepping is spent and there is
     no discretisation error at all. Name a method to study integrators.
     """
 
     body: RigidBody
 
+    default_method: ClassVar[str] = "exact"
+
     def __post_init__(self) -> None:
         _init_body(self, self.body, "auto")
 
-    default_method = "exact"
-    free_flow = "auto"
-
     @property
-    def moments(self) -> np.ndarray:
-        return self.body.moments
-
-    def potential(self, q: np.ndarray) -> np.ndarray:
-        """Potential energy (zero for a free body), shape ``q.shape[:-1]``."""
-        return np.zeros(np.shape(q)[:-1])
-
-    def torque_parameters(self) -> tuple[int, tuple[float, float, float]]:
-        """Kernel description of the torque: (kind, c). No torque here."""
-        return TORQUE_NONE, (0.0, 0.0, 0.0)
-
-    def damping_parameter(self) -> float:
-        return 0.0
-
-    def orientation_only_torque(self) -> bool:
-        """Whether the torque depends on the orientation (and time) only: its kick is exact."""
-        return True
-
-    def torque_callback(self):
-        """The C callback the driver calls for user torques (a no-op here)."""
-        from liebody._kernels.torque import no_torque
-
-        return no_torque
+    def capabilities(self) -> Capabilities:
+        return Capabilities()
 
 
 @dataclass(frozen=True, init=False, eq=False)
-class HeavyTop(FreeBody):
+class HeavyTop(Scene):
     """A rigid body with one point fixed at the origin in uniform gravity ``-g e_z``.
 
-    Reference text, section 1.7 ("The Heavy Symmetric Top"). The potential is
-    ``V = mass * g * (R(q) cm) . e_z`` and the body-frame torque ``Gamma x (mass g cm)``
-    with ``Gamma = R(q)^T e_z``. A symmetric body with ``cm`` on its symmetry axis is
-    the Lagrange top (see :mod:`liebody.lagrange_top`); an asymmetric body or an
-    off-axis ``cm`` is a general heavy top and works as well.
+    Hand & Finch, *Analytical Mechanics*, ch. 8 (the heavy symmetric top). The
+    potential is ``V = mass * g * (R(q) cm) . e_z`` and the body-frame torque
+    ``Gamma x (mass g cm)`` with ``Gamma = R(q)^T e_z``. A symmetric body with ``cm`` on
+    its symmetry axis is the Lagrange top (see :mod:`liebody.lagrange_top`); an
+    asymmetric body or an off-axis ``cm`` is a general heavy top and works as well.
 
     Parameters
     ----------
@@ -87,8 +217,8 @@ class HeavyTop(FreeBody):
     free_flow
         The drift of the splittings for an asymmetric body: ``"auto"``/``"axes"``, the
         5-rotation axis splitting (cheapest), or ``"exact"``, the elliptic exact flow
-        (about 4x dearer per step, no splitting error in the free part). A symmetric body
-        always gets its exact flow.
+        (dearer per step, no splitting error in the free part). A symmetric body
+        gets its exact flow unless ``"axes"`` is asked for.
 
     Default method: ``"splitting2"``, kick(h/2) – free flow(h) – kick(h/2): the gravity
     kick is exact (the torque depends on the orientation only) and the free flow is the
@@ -98,11 +228,11 @@ class HeavyTop(FreeBody):
     failure: step-size resonance when ``h`` times the nutation frequency nears ``2 pi``.
     """
 
+    body: RigidBody
     mass: float
     cm: np.ndarray
     g: float
-
-    default_method = "splitting2"
+    free_flow: str
 
     def __init__(self, body: RigidBody, mass: float, cm, g: float = 9.81,
                  free_flow: str = "auto") -> None:
@@ -114,28 +244,30 @@ class HeavyTop(FreeBody):
         object.__setattr__(self, "g", as_positive_float("g", g))
 
     @property
+    def capabilities(self) -> Capabilities:
+        return Capabilities(torque=frozenset({"orientation"}), conservative=True)
+
+    @property
     def weight_arm(self) -> np.ndarray:
         """``c = mass * g * cm`` (body frame): ``V = c . Gamma``."""
         return self.mass * self.g * self.cm
 
     def potential(self, q: np.ndarray) -> np.ndarray:
-        """``V = mass g (R(q) cm) . e_z`` for quaternions ``(..., 4)``."""
-        q = np.asarray(q, dtype=float)
-        w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-        gamma = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z],
-                         axis=-1)
-        return gamma @ self.weight_arm
+        """``V = mass g (R(q) cm) . e_z = c . Gamma`` for unit quaternions ``(..., 4)``."""
+        from liebody import quaternion
 
-    def torque_parameters(self):
-        return TORQUE_GRAVITY, tuple(float(v) for v in self.weight_arm)
+        return quaternion.rotate_inverse(q, [0.0, 0.0, 1.0]) @ self.weight_arm
+
+    def torque_model(self) -> TorqueModel:
+        return TorqueModel.gravity(self.weight_arm)
 
     def __repr__(self) -> str:
-        return (f"HeavyTop(body={self.body!r}, mass={self.mass:g}, cm={self.cm.tolist()}, "
-                f"g={self.g:g})")
+        return (f"{type(self).__name__}(body={self.body!r}, mass={self.mass:g}, "
+                f"cm={self.cm.tolist()}, g={self.g:g})")
 
 
 @dataclass(frozen=True, init=False, eq=False)
-class TorqueBody(FreeBody):
+class TorqueBody(Scene):
     """A rigid body under a user torque ``torque(t, q, L)`` (body frame).
 
     Parameters
@@ -148,7 +280,8 @@ class TorqueBody(FreeBody):
         (``(3,)`` array), returning the body-frame torque (3 numbers).
     potential
         Optional ``potential(q) -> float`` for a conservative, orientation-only
-        torque; energy diagnostics then include it.
+        torque; energy diagnostics then include it, and the scene counts as
+        conservative.
     orientation_only
         Promise that the torque does not depend on ``L`` (it may depend on ``t`` and
         ``q``). Then each kick (``q`` fixed, ``L += dt * torque``) is the exact flow of the
@@ -165,11 +298,11 @@ class TorqueBody(FreeBody):
     consistent, symmetric methods with no further geometric guarantee.
     """
 
+    body: RigidBody
     torque: object
     potential_fn: object
     orientation_only: bool
-
-    default_method = "splitting2"
+    free_flow: str
 
     def __init__(self, body: RigidBody, torque, potential=None,
                  orientation_only: bool = False, free_flow: str = "auto") -> None:
@@ -192,8 +325,11 @@ class TorqueBody(FreeBody):
         object.__setattr__(self, "potential_fn", potential)
         object.__setattr__(self, "orientation_only", orientation_only)
 
-    def orientation_only_torque(self) -> bool:
-        return self.orientation_only
+    @property
+    def capabilities(self) -> Capabilities:
+        deps = {"time", "orientation"} | (set() if self.orientation_only else {"momentum"})
+        conservative = self.potential_fn is not None and self.orientation_only
+        return Capabilities(torque=frozenset(deps), conservative=conservative)
 
     def potential(self, q: np.ndarray) -> np.ndarray:
         q = np.asarray(q, dtype=float)
@@ -203,52 +339,41 @@ class TorqueBody(FreeBody):
         vals = np.fromiter((float(self.potential_fn(row)) for row in flat), float, len(flat))
         return vals.reshape(q.shape[:-1])
 
-    def torque_parameters(self):
-        return TORQUE_USER, (0.0, 0.0, 0.0)
-
-    def torque_callback(self):
-        return _callback(self.torque)
+    def torque_model(self) -> TorqueModel:
+        return TorqueModel.user(self.torque)
 
 
 @dataclass(frozen=True, init=False, eq=False)
-class DampedBody(FreeBody):
+class DampedBody(Scene):
     """A free body with internal dissipation that keeps ``|L|`` and lowers the energy.
 
     Double-bracket form (body frame): ``dL/dt = L x omega + eps L x (L x omega)``, i.e.
     the body turns with ``omega + eps L x omega`` while the spatial ``L`` stays fixed.
     ``|L|`` is kept, ``dT/dt = -eps |L x omega|^2 <= 0``, and the body ends up spinning
     about its axis of largest moment, where ``T = |L|^2 / (2 I_max)`` is least: the
-    reference text's spin-stabilised spacecraft (end of "Stability of Axes"; Explorer 1
-    started about its long axis and tumbled).
+    spin-stabilised spacecraft of Hand & Finch, ch. 8 (stability of rotation about the
+    principal axes; Explorer 1 started about its long axis and tumbled).
 
     Default method: ``"splitting2"``, D(h/2) – free flow(h) – D(h/2) with a
     second-order Lie-midpoint step D of the dissipative part; ``|L|`` and the spatial
     ``L`` are kept to round-off. ``free_flow`` as for :class:`HeavyTop`.
     """
 
+    body: RigidBody
     eps: float
-
-    default_method = "splitting2"
+    free_flow: str
 
     def __init__(self, body: RigidBody, eps: float, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
         object.__setattr__(self, "eps", as_positive_float("eps", eps))
 
-    def damping_parameter(self) -> float:
+    @property
+    def capabilities(self) -> Capabilities:
+        return Capabilities(conservative=False, dissipative=True)
+
+    @property
+    def dissipation(self) -> float:
         return self.eps
-
-
-_FREE_FLOWS = ("auto", "axes", "exact")
-
-
-def _init_body(scene, body, free_flow: str) -> None:
-    """Shared constructor part of the torqued scenes: the body and the drift choice."""
-    if not isinstance(body, RigidBody):
-        raise TypeError(f"body must be a liebody.RigidBody, got {type(body).__name__}")
-    if free_flow not in _FREE_FLOWS:
-        raise ValueError(f"free_flow must be one of {_FREE_FLOWS}, got {free_flow!r}")
-    object.__setattr__(scene, "body", body)
-    object.__setattr__(scene, "free_flow", free_flow)
 
 
 _CALLBACKS: dict = {}

@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
-from liebody.registry import Method
+from liebody._methods import Method
 
 
 @dataclass(frozen=True)

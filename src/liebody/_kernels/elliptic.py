@@ -1,7 +1,7 @@
 """Elliptic integrals and Jacobi elliptic functions (numba, float64 scalars).
 
 Written for the exact free-rigid-body flow (:mod:`liebody._kernels.exact`), usable on
-their own. Every kernel is ``@njit(cache=True)``, takes and returns float64 scalars
+their own. Every kernel is ``@jit``, takes and returns float64 scalars
 (or tuples of them) and allocates nothing.
 
 Parameters follow the *parameter* convention ``m = k^2`` and, wherever ``m`` may be
@@ -74,7 +74,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from liebody._kernels._jit import jit
 
 # Carlson 1995 termination constants for r = 2^-53 (unit round-off of float64):
 # R_F: Q = (3 r)^(-1/6) max|A0 - x|;  R_J: Q = (r/4)^(-1/6) max|A0 - x|.
@@ -86,7 +86,7 @@ _LANDEN_KMIN = 3.0e-9
 _LANDEN_MAXDEPTH = 16
 
 
-@njit(cache=True)
+@jit
 def carlson_rf(x, y, z):
     """Carlson's symmetric integral ``R_F(x, y, z)``, ``x, y, z >= 0``, at most one zero.
 
@@ -119,7 +119,7 @@ def carlson_rf(x, y, z):
     return (1.0 - 0.1 * e2 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / math.sqrt(a)
 
 
-@njit(cache=True)
+@jit
 def _rc1(e, y):
     """``R_C(1, y)`` with ``y = 1 + e > 0``, both supplied (each formed without cancellation).
 
@@ -136,7 +136,7 @@ def _rc1(e, y):
     return math.log((1.0 + s) / math.sqrt(y)) / s
 
 
-@njit(cache=True)
+@jit
 def carlson_rj(x, y, z, p):
     """Carlson's ``R_J(x, y, z, p)``, ``x, y, z >= 0`` (at most one zero), ``p > 0``.
 
@@ -194,7 +194,7 @@ def carlson_rj(x, y, z, p):
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@jit
 def _landen_step(k, kc):
     """One descending Landen step ``(k, k') -> ((k/(1+k'))^2, 2 sqrt(k')/(1+k'))``.
 
@@ -207,7 +207,7 @@ def _landen_step(k, kc):
     return t * t, 2.0 * math.sqrt(kc) / (1.0 + kc)
 
 
-@njit(cache=True)
+@jit
 def landen_chain(k, kc):
     """Descending Landen moduli ``k_0 = k, k_1, ..., k_N`` (``N <= 16``).
 
@@ -244,7 +244,7 @@ def landen_chain(k, kc):
     return nlev, ks, kcs
 
 
-@njit(cache=True)
+@jit
 def landen_k(k, nlev, ks):
     """``K(k) = (pi/2)(1 + k_N^2/4) (1 + k_1) ... (1 + k_N)`` from a Landen chain.
 
@@ -257,7 +257,7 @@ def landen_k(k, nlev, ks):
     return kq
 
 
-@njit(cache=True)
+@jit
 def landen_eval(u, k, kc, nlev, ks, kcs, kq):
     """Reduced ``(sn, cn, dn, j, K)`` from a precomputed :func:`landen_chain`.
 
@@ -310,7 +310,7 @@ def landen_eval(u, k, kc, nlev, ks, kcs, kq):
     return s, c, d, j, kq
 
 
-@njit(cache=True)
+@jit
 def jacobi_landen(u, k, kc):
     """Reduced Jacobi functions and the quarter period.
 
@@ -337,7 +337,7 @@ def jacobi_landen(u, k, kc):
     return landen_eval(u, k, kc, nlev, ks, kcs, kq)
 
 
-@njit(cache=True)
+@jit
 def jacobi_sncndn(u, m, mc):
     """``(sn(u|m), cn(u|m), dn(u|m))`` for ``0 <= m <= 1``, ``mc = 1 - m``.
 
@@ -353,7 +353,7 @@ def jacobi_sncndn(u, m, mc):
     return s, c, d
 
 
-@njit(cache=True)
+@jit
 def jacobi_am(u, m, mc):
     """Continuous Jacobi amplitude ``am(u|m)`` (``am(u + 2K) = am(u) + pi``)."""
     if mc <= 0.0:
@@ -367,13 +367,13 @@ def jacobi_am(u, m, mc):
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@jit
 def ellipk(m, mc):
     """Complete integral of the first kind ``K(m) = R_F(0, mc, 1)`` (``mc = 1 - m > 0``)."""
     return carlson_rf(0.0, mc, 1.0)
 
 
-@njit(cache=True)
+@jit
 def ellippi_complete(n, m, mc):
     """Complete integral of the third kind ``Pi(n | m) = R_F(0, mc, 1) + n/3 R_J(0, mc, 1, 1 - n)``.
 
@@ -382,7 +382,7 @@ def ellippi_complete(n, m, mc):
     return carlson_rf(0.0, mc, 1.0) + n / 3.0 * carlson_rj(0.0, mc, 1.0, 1.0 - n)
 
 
-@njit(cache=True)
+@jit
 def _reduce_phi(phi):
     """``phi = j pi + r`` with ``|r| <= pi/2``; returns ``(j, sin r, cos r)``."""
     j = math.floor(phi / math.pi + 0.5)
@@ -390,7 +390,7 @@ def _reduce_phi(phi):
     return j, math.sin(r), math.cos(r)
 
 
-@njit(cache=True)
+@jit
 def ellipf(phi, m, mc):
     """Incomplete integral of the first kind ``F(phi | m)`` for any real ``phi``."""
     j, s, c = _reduce_phi(phi)
@@ -401,7 +401,7 @@ def ellipf(phi, m, mc):
     return res
 
 
-@njit(cache=True)
+@jit
 def ellippi(n, phi, m, mc):
     """Incomplete integral of the third kind ``Pi(n; phi | m)``, any real ``phi``, ``n < 1``.
 

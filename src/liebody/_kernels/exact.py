@@ -113,7 +113,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from liebody._kernels._jit import jit
 
 from .elliptic import carlson_rf, carlson_rj, landen_chain, landen_eval, landen_k
 from .quat import component, qaxis_rotation, qexp, qmul
@@ -138,7 +139,7 @@ _KCS = HEAD_SIZE + 16
 PLAN_SIZE = HEAD_SIZE + 32
 
 
-@njit(cache=True)
+@jit
 def _head(kind, g, qw, qx, qy, qz, m1, m2, m3, a9=0.0, a10=0.0, a11=0.0, a12=0.0, a13=0.0,
           a14=0.0, a15=0.0, a16=0.0, a17=0.0, a18=0.0, a19=0.0, a20=0.0, a21=0.0, a22=0.0,
           a23=0.0, a24=0.0, a25=0.0, a26=0.0, a27=0.0, a28=0.0, a29=0.0, a30=0.0,
@@ -148,7 +149,7 @@ def _head(kind, g, qw, qx, qy, qz, m1, m2, m3, a9=0.0, a10=0.0, a11=0.0, a12=0.0
             a34, a35, a36, a37, a38)
 
 
-@njit(cache=True)
+@jit
 def _cross_axis(ax, x, y, z):
     """``e_ax x (x, y, z)``."""
     if ax == 0:
@@ -158,7 +159,7 @@ def _cross_axis(ax, x, y, z):
     return -y, x, 0.0
 
 
-@njit(cache=True)
+@jit
 def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     """Per-trajectory constants: ``(head, ks, kcs)``; see the module docstring.
 
@@ -286,7 +287,7 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
                  qp[0], qp[1], qp[2], qp[3], float(nlev), kq), ks, kcs
 
 
-@njit(cache=True)
+@jit
 def _finish(h, phi, xp, x2, xo):
     """Map the internal unit momentum back to the caller's frame and build ``q``."""
     g = h[_G]
@@ -314,7 +315,7 @@ def _finish(h, phi, xp, x2, xo):
     return w, x, y, z, g * v0, g * v1, g * v2
 
 
-@njit(cache=True)
+@jit
 def _eval(h, ks, kcs, t):
     """State at time ``t`` from the constants ``(h, ks, kcs)`` (tuples or arrays)."""
     kind = h[_KIND]
@@ -404,7 +405,7 @@ def _eval(h, ks, kcs, t):
     return qw, qx, qy, qz, m1, m2, m3
 
 
-@njit(cache=True)
+@jit
 def exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t):
     """Exact free-rigid-body flow of one state for time ``t`` (any sign, any size).
 
@@ -438,7 +439,7 @@ def exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t):
     return _eval(h, ks, kcs, t)
 
 
-@njit(cache=True)
+@jit
 def exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan):
     """Per-trajectory constants of :func:`exact_flow` into ``plan`` (float64, ``PLAN_SIZE``).
 
@@ -461,13 +462,13 @@ def exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan):
     return plan
 
 
-@njit(cache=True)
+@jit
 def exact_flow_eval(plan, t):
     """State ``(w, x, y, z, m1, m2, m3)`` at time ``t`` from a plan (:func:`exact_flow_plan`)."""
     return _eval(plan[:HEAD_SIZE], plan[_KS:_KS + 16], plan[_KCS:_KCS + 16], t)
 
 
-@njit(cache=True)
+@jit
 def exact_flow_times(I, q0, m0, t, q_out, m_out):
     """One trajectory at many times: ``q_out[i], m_out[i]`` = flow of ``(q0, m0)`` for ``t[i]``.
 
@@ -487,7 +488,7 @@ def exact_flow_times(I, q0, m0, t, q_out, m_out):
     return q_out, m_out
 
 
-@njit(cache=True)
+@jit
 def exact_flow_rows(I, q, m, t, q_out, m_out):
     """Independent states: row ``i`` of ``(q, m)`` advanced by ``t[i]`` (same body ``I``)."""
     for i in range(t.shape[0]):

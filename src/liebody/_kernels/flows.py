@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from liebody._kernels._jit import jit
 from liebody._kernels.quat import (
     component,
     qaxis_rotation,
@@ -26,7 +25,8 @@ from liebody._kernels.quat import (
     qrotate_inv,
     qunit_increment,
 )
-from liebody._kernels.torque import TORQUE_NONE, damping_rate, torque_value
+from liebody._kernels.stages import TORQUE_NONE
+from liebody._kernels.torque import damping_rate, torque_value
 
 #: DMV iteration limits
 DMV_MAX_FIXED_POINT = 60
@@ -34,7 +34,7 @@ DMV_MAX_NEWTON = 30
 DMV_CONTINUATION = 32
 
 
-@njit(cache=True)
+@jit
 def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     """Exact flow of ``H_k = rate * m_k^2 / 2`` for time ``tau`` (``k = axis``).
 
@@ -58,7 +58,7 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     return w, x, y, z, m1, m2, m3
 
 
-@njit(cache=True)
+@jit
 def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     """:func:`axis_flow` for a rotation whose angle recurs every step (``m_k`` constant).
 
@@ -88,7 +88,7 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     return w, x, y, z, m1, m2, m3
 
 
-@njit(cache=True)
+@jit
 def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     """Exact flow of ``rate * |m|^2 / 2``: ``m`` fixed, ``q <- q exp(tau rate m)``.
 
@@ -104,7 +104,7 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     return w, x, y, z, m1, m2, m3
 
 
-@njit(cache=True)
+@jit
 def _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3):
     """Residual of ``c = (1 + |c|^2) a + F .* (c_j c_k)`` (the DMV equation divided by I)."""
     alpha = 1.0 + c1 * c1 + c2 * c2 + c3 * c3
@@ -113,7 +113,7 @@ def _dmv_residual(c1, c2, c3, a1, a2, a3, f1, f2, f3):
             c3 - alpha * a3 - f3 * c1 * c2)
 
 
-@njit(cache=True)
+@jit
 def _dmv_newton(c1, c2, c3, a1, a2, a3, f1, f2, f3):
     """Damped Newton on the DMV equation from ``c``; returns ``(c, iterations, converged)``.
 
@@ -166,7 +166,7 @@ def _dmv_newton(c1, c2, c3, a1, a2, a3, f1, f2, f3):
     return c1, c2, c3, it, False
 
 
-@njit(cache=True)
+@jit
 def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     """Discrete Moser–Veselov step (= RATTLE on SO(3)) in quaternion form.
 
@@ -239,7 +239,7 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     return w, x, y, z, m1, m2, m3, it
 
 
-@njit(cache=True)
+@jit
 def _omega_e(m1, m2, m3, I1, I2, I3, eps):
     o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
     if eps != 0.0:
@@ -248,7 +248,7 @@ def _omega_e(m1, m2, m3, I1, I2, I3, eps):
     return o1, o2, o3
 
 
-@njit(cache=True)
+@jit
 def _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn):
     """Right-hand side ``(q', m')`` in R^7 (no constraint), with torque and dissipation.
 
@@ -262,7 +262,7 @@ def _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn):
             m2 * o3 - m3 * o2 + n1, m3 * o1 - m1 * o3 + n2, m1 * o2 - m2 * o1 + n3)
 
 
-@njit(cache=True)
+@jit
 def euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Explicit Euler on ``(q, m)`` in R^7, no renormalisation (baseline: fails).
 
@@ -274,7 +274,7 @@ def euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, to
             m1 + h * k[4], m2 + h * k[5], m3 + h * k[6])
 
 
-@njit(cache=True)
+@jit
 def rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Classical Runge–Kutta 4 on ``(q, m)`` in R^7, no renormalisation (baseline).
 
@@ -302,7 +302,7 @@ def rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torq
             m3 + s * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6]))
 
 
-@njit(cache=True)
+@jit
 def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
     """Apply the group increment ``sigma``: ``q <- q exp(sigma)``, ``m <- exp(-hat sigma) m``."""
     ew, ex, ey, ez = qexp(s1, s2, s3)
@@ -311,7 +311,7 @@ def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
     return w, x, y, z, n1, n2, n3
 
 
-@njit(cache=True)
+@jit
 def lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Lie–Euler: ``sigma = h omega_e(m)``, coadjoint update, plus ``h tau(t, q, m)``.
 
@@ -325,7 +325,7 @@ def lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h
     return r[0], r[1], r[2], r[3], r[4] + h * n1, r[5] + h * n2, r[6] + h * n3
 
 
-@njit(cache=True)
+@jit
 def _dexpinv(u1, u2, u3, v1, v2, v3):
     """``dexp^{-1}_{-u}(v) = v + u x v / 2 + u x (u x v) / 12`` (truncated, enough for order 4).
 
@@ -340,7 +340,7 @@ def _dexpinv(u1, u2, u3, v1, v2, v3):
     return (v1 + 0.5 * c1 + d1 / 12.0, v2 + 0.5 * c2 + d2 / 12.0, v3 + 0.5 * c3 + d3 / 12.0)
 
 
-@njit(cache=True)
+@jit
 def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, eps, h):
     """``dexpinv(u, h omega_e(exp(-hat u) m))``: one coadjoint RKMK stage derivative."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
@@ -349,7 +349,7 @@ def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, eps, h):
     return _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
 
 
-@njit(cache=True)
+@jit
 def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h):
     k1 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
     k1 = (h * k1[0], h * k1[1], h * k1[2])
@@ -362,7 +362,7 @@ def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h):
     return _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3)
 
 
-@njit(cache=True)
+@jit
 def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3,
                          eps, h, torque_fn):
     """Stage derivatives on SO(3) x R^3: ``(dexpinv(u, h omega_e), h m')`` at ``(q exp(u), m)``."""
@@ -375,7 +375,7 @@ def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, I1, I2, I3, tk, 
             h * (m1 * o2 - m2 * o1 + n3))
 
 
-@njit(cache=True)
+@jit
 def rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (literature section 7).
 

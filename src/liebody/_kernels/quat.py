@@ -15,14 +15,14 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from liebody._kernels._jit import jit
 
 # --------------------------------------------------------------------------------------
 # scalar kernels
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@jit
 def qmul(aw, ax, ay, az, bw, bx, by, bz):
     """Hamilton product ``a * b``."""
     return (
@@ -33,7 +33,7 @@ def qmul(aw, ax, ay, az, bw, bx, by, bz):
     )
 
 
-@njit(cache=True)
+@jit
 def qrotate(w, x, y, z, vx, vy, vz):
     """``R(q) v`` for a unit quaternion, via ``v + 2 u x (u x v + w v)``, ``u = (x, y, z)``."""
     tx = 2.0 * (y * vz - z * vy)
@@ -46,13 +46,13 @@ def qrotate(w, x, y, z, vx, vy, vz):
     )
 
 
-@njit(cache=True)
+@jit
 def qrotate_inv(w, x, y, z, vx, vy, vz):
     """``R(q)^T v`` (space to body) for a unit quaternion."""
     return qrotate(w, -x, -y, -z, vx, vy, vz)
 
 
-@njit(cache=True, inline="always")
+@jit(inline="always")
 def component(axis, x, y, z):
     """``(x, y, z)[axis]`` for a vector kept in scalars (``axis`` in 0, 1, 2)."""
     if axis == 0:
@@ -62,7 +62,7 @@ def component(axis, x, y, z):
     return z
 
 
-@njit(cache=True)
+@jit
 def qexp(rx, ry, rz):
     """Unit quaternion of the rotation vector ``r`` (angle ``|r|`` about ``r/|r|``).
 
@@ -81,7 +81,7 @@ def qexp(rx, ry, rz):
     return c, s * rx, s * ry, s * rz
 
 
-@njit(cache=True)
+@jit
 def _two_square(a):
     """``a*a`` as an exact sum ``hi + lo`` (Dekker's error-free product)."""
     p = a * a
@@ -91,7 +91,7 @@ def _two_square(a):
     return p, ((ah * ah - p) + 2.0 * ah * al) + al * al
 
 
-@njit(cache=True)
+@jit
 def _two_sum(a, b):
     """``a + b`` as an exact sum ``s + e`` (Knuth's error-free sum)."""
     s = a + b
@@ -99,7 +99,7 @@ def _two_sum(a, b):
     return s, (a - (s - bb)) + (b - bb)
 
 
-@njit(cache=True)
+@jit
 def qunit_increment(w, x, y, z):
     """Make a unit *increment* quaternion unit to far below round-off, without bias.
 
@@ -125,7 +125,7 @@ def qunit_increment(w, x, y, z):
     return w, k * x, k * y, k * z
 
 
-@njit(cache=True)
+@jit
 def qexp_increment(rx, ry, rz):
     """:func:`qexp` as ``(cm, vx, vy, vz)`` with ``cm = cos(|r|/2) - 1`` kept to full
     relative accuracy, for :func:`qmul_increment`.
@@ -141,7 +141,7 @@ def qexp_increment(rx, ry, rz):
     return cm, vx, vy, vz
 
 
-@njit(cache=True)
+@jit
 def qmul_increment(w, x, y, z, cm, vx, vy, vz):
     """``q * (1 + cm, v)`` evaluated as ``q + (cm q + q * (0, v))``: the small update is
     formed first and added once, so its rounding does not depend on the grid near 1."""
@@ -151,7 +151,7 @@ def qmul_increment(w, x, y, z, cm, vx, vy, vz):
             z + (cm * z + w * vz + x * vy - y * vx))
 
 
-@njit(cache=True)
+@jit
 def qlog(w, x, y, z):
     """Rotation vector of a unit quaternion, angle in ``[0, pi]``.
 
@@ -169,7 +169,7 @@ def qlog(w, x, y, z):
     return f * x, f * y, f * z
 
 
-@njit(cache=True)
+@jit
 def qnormalize(w, x, y, z):
     """``q / |q|`` (scaled to avoid overflow/underflow)."""
     m = max(abs(w), abs(x), abs(y), abs(z))
@@ -178,7 +178,7 @@ def qnormalize(w, x, y, z):
     return w / n, x / n, y / n, z / n
 
 
-@njit(cache=True)
+@jit
 def qaxis_rotation(w, x, y, z, axis, s, c):
     """``q * (c, s e_axis)``: right-multiply by a rotation about body axis ``axis`` (0, 1, 2).
 
@@ -198,7 +198,7 @@ def qaxis_rotation(w, x, y, z, axis, s, c):
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@jit
 def multiply_rows(a, b, out):
     for i in range(out.shape[0]):
         r = qmul(a[i, 0], a[i, 1], a[i, 2], a[i, 3], b[i, 0], b[i, 1], b[i, 2], b[i, 3])
@@ -206,7 +206,7 @@ def multiply_rows(a, b, out):
     return out
 
 
-@njit(cache=True)
+@jit
 def rotate_rows(q, v, out):
     for i in range(out.shape[0]):
         r = qrotate(q[i, 0], q[i, 1], q[i, 2], q[i, 3], v[i, 0], v[i, 1], v[i, 2])
@@ -214,28 +214,28 @@ def rotate_rows(q, v, out):
     return out
 
 
-@njit(cache=True)
+@jit
 def exp_rows(r, out):
     for i in range(out.shape[0]):
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qexp(r[i, 0], r[i, 1], r[i, 2])
     return out
 
 
-@njit(cache=True)
+@jit
 def log_rows(q, out):
     for i in range(out.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = qlog(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
     return out
 
 
-@njit(cache=True)
+@jit
 def normalize_rows(q, out):
     for i in range(out.shape[0]):
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = qnormalize(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
     return out
 
 
-@njit(cache=True)
+@jit
 def to_matrix_rows(q, out):
     """Rotation matrices ``R(q)`` (space <- body) of unit quaternions."""
     for i in range(out.shape[0]):
@@ -255,7 +255,7 @@ def to_matrix_rows(q, out):
     return out
 
 
-@njit(cache=True)
+@jit
 def from_matrix_rows(m, out):
     """Unit quaternions (``w >= 0``) from rotation matrices, Shepperd's method.
 
@@ -298,7 +298,7 @@ def from_matrix_rows(m, out):
     return out
 
 
-@njit(cache=True)
+@jit
 def slerp_rows(a, b, t, out):
     """Spherical linear interpolation along the short arc from ``a`` to ``b``."""
     for i in range(out.shape[0]):

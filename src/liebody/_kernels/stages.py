@@ -1,25 +1,158 @@
-"""Stage kinds and driver status codes (plain integers, importable without numba)."""
+"""The stage contract: every stage kind, its parameters and the driver families, in one place.
 
-STAGE_AXIS = 0  # exact flow of rate * m_k^2 / 2 about body axis k (params[0] = rate;
-#                 params[1] = 1: the angle recurs every step, unit-correct it)
-STAGE_SPHERE = 1  # exact flow of rate * |m|^2 / 2 (params[0] = rate)
-STAGE_DMV = 2  # discrete Moser-Veselov / RATTLE step (params = moments)
-STAGE_EXACT = 3  # exact free-body flow (params = moments)
-STAGE_EULER = 4  # explicit Euler on (q, m) (params = moments)
-STAGE_RK4 = 5  # classical RK4 on (q, m) (params = moments)
-STAGE_LIE_EULER = 6  # Lie-Euler (params = moments)
-STAGE_RKMK4 = 7  # Runge-Kutta-Munthe-Kaas 4 (params = moments)
+A method's step is a sequence of *stages*. Each stage is one map applied for
+``coef * h`` while the clock advances by ``clock * h``; the driver
+(:mod:`liebody._kernels.driver`) runs the sequence. A stage is one row of five
+arrays (``kinds``, ``axes``, ``coefs``, ``clock``, ``params``); the Python side builds
+rows from :class:`liebody._plan.Stage` records, never by hand.
 
-STATUS_OK = 0
-STATUS_NONFINITE = 1
-STATUS_NO_CONVERGENCE = 2
-STAGE_KICK = 8  # torque kick, q fixed (params = torque kind, c1, c2, c3)
-STAGE_DAMP = 9  # double-bracket dissipation sub-flow (params = moments, eps)
-STAGE_KICK_IMPLICIT = 10  # adjoint (implicit Euler) kick for torques that depend on L
+Parameter slots. ``params`` has :data:`N_PARAMS` columns, and every column has one
+meaning for every kind (a kind reads the columns it needs and ignores the others):
 
-#: width of the per-stage parameter rows
-N_PARAMS = 8
+=========================  =================================================
+``P_I1, P_I2, P_I3``        principal moments (the DMV, exact and baseline
+                            stages; modified moments for preprocessed DMV)
+``P_RATE``                  rate of a rotation: the flow of
+                            ``rate * m_k^2 / 2`` (axis) or ``rate * |m|^2 / 2``
+                            (sphere)
+``P_TORQUE``                torque model code (``TORQUE_*`` below)
+``P_C1, P_C2, P_C3``        torque constants (uniform gravity: ``M g cm``)
+``P_EPS``                   dissipation strength ``eps``
+=========================  =================================================
 
+Adding a stage kind: give it a code and a :class:`Kind` entry in :data:`KINDS`, add
+it to the families that should run it, and implement it in the driver's
+``_apply_*`` functions. Nothing else reads kind codes.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# ---------------------------------------------------------------------------- stage kinds
+AXIS = 0  # exact flow of rate * m_k^2 / 2 about body axis k (k = the stage's axis)
+AXIS_RECURRING = 1  # the same flow when m_k is constant: applied in increment form
+SPHERE = 2  # exact flow of rate * |m|^2 / 2 (m fixed, q turns about m)
+KICK = 3  # exact flow of an orientation-dependent torque: q fixed, m += tau torque
+KICK_IMPLICIT = 4  # adjoint kick m' = m + tau torque(t, q, m') for momentum-dependent torques
+DAMP = 5  # second-order step of the double-bracket dissipation (keeps |m|, lowers T)
+DMV = 6  # discrete Moser-Veselov step = RATTLE on SO(3)
+EXACT = 7  # exact free-body flow (Jacobi elliptic functions)
+EULER = 8  # explicit Euler on (q, m) in R^7 (baseline)
+RK4 = 9  # classical Runge-Kutta 4 on (q, m) in R^7 (baseline)
+LIE_EULER = 10  # Lie-Euler, coadjoint form (baseline)
+RKMK4 = 11  # Runge-Kutta-Munthe-Kaas 4 (baseline)
+
+# ------------------------------------------------------------------------ parameter slots
+P_I1, P_I2, P_I3 = 0, 1, 2
+P_RATE = 3
+P_TORQUE = 4
+P_C1, P_C2, P_C3 = 5, 6, 7
+P_EPS = 8
+#: width of a parameter row
+N_PARAMS = 9
+
+# --------------------------------------------------------------------------- torque codes
 TORQUE_NONE = 0
-TORQUE_GRAVITY = 1
-TORQUE_USER = 2
+TORQUE_GRAVITY = 1  # Gamma x c with Gamma = R(q)^T e_z, c = M g cm (uniform gravity)
+TORQUE_USER = 2  # the user's callback (the driver's torque_fn argument)
+
+# ------------------------------------------------------------------------- driver status
+STATUS_OK = 0
+STATUS_NONFINITE = 1  # the state became non-finite
+STATUS_NO_CONVERGENCE = 2  # DMV's implicit equation was not solved
+STATUS_KICK_NO_CONVERGENCE = 3  # the implicit (adjoint) kick's fixed point was not found
+STATUS_BAD_STAGE = 4  # a stage kind the family does not run (a bug in a plan)
+
+
+class Kind(NamedTuple):
+    """What the Python side needs to know about a stage kind."""
+
+    name: str
+    params: tuple[str, ...]  # the parameter slots it reads
+    mergeable: bool  # consecutive stages of this kind with equal parameters are one flow
+    rotation: bool  # an exact rotation of (q, m): the identity when its rate is zero
+
+
+_MOMENTS = ("I1", "I2", "I3")
+_TORQUE = ("torque", "c1", "c2", "c3")
+
+#: every stage kind, by code
+KINDS: dict[int, Kind] = {
+    AXIS: Kind("axis", ("rate",), True, True),
+    AXIS_RECURRING: Kind("axis (recurring)", ("rate",), True, True),
+    SPHERE: Kind("sphere", ("rate",), True, True),
+    KICK: Kind("kick", _TORQUE, True, False),
+    KICK_IMPLICIT: Kind("implicit kick", _TORQUE, False, False),
+    DAMP: Kind("damping", (*_MOMENTS, "eps"), False, False),
+    DMV: Kind("dmv", _MOMENTS, False, False),
+    EXACT: Kind("exact", _MOMENTS, False, False),
+    EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps"), False, False),
+    RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps"), False, False),
+    LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps"), False, False),
+    RKMK4: Kind("rkmk4", (*_MOMENTS, *_TORQUE, "eps"), False, False),
+}
+
+#: parameter name -> slot
+SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
+                         "torque": P_TORQUE, "c1": P_C1, "c2": P_C2, "c3": P_C3, "eps": P_EPS}
+
+# ------------------------------------------------------------------------------ families
+# The driver is compiled once per family, for the stage kinds of that family only, so a
+# method compiles no more than it runs (a free-body splitting never compiles the
+# elliptic exact flow). A plan runs in the first family, in this order, that holds all
+# its kinds; GENERAL holds every kind.
+F_AXES = 0  # axis rotations (free-body splitting2 and its compositions)
+F_ROTATIONS = 1  # every rotation (sr2, free symmetric bodies)
+F_SPLITTING = 2  # rotations, kicks and dissipation (splittings of torqued scenes)
+F_DMV = 3  # DMV and kicks (rattle, preprocessed DMV)
+F_EXACT = 4  # the exact flow, kicks and dissipation
+F_EULER = 5
+F_RK4 = 6
+F_LIE_EULER = 7
+F_RKMK4 = 8
+F_GENERAL = 9  # every kind (plans that mix kinds of several families)
+
+_KICKS = frozenset({KICK, KICK_IMPLICIT})
+_ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
+
+#: family code -> the stage kinds its driver runs (in the order tried)
+FAMILIES: dict[int, frozenset[int]] = {
+    F_AXES: frozenset({AXIS}),
+    F_ROTATIONS: _ROTATIONS,
+    F_SPLITTING: _ROTATIONS | _KICKS | {DAMP},
+    F_DMV: _KICKS | {DMV},
+    F_EXACT: _KICKS | {EXACT, DAMP},
+    F_EULER: frozenset({EULER}),
+    F_RK4: frozenset({RK4}),
+    F_LIE_EULER: frozenset({LIE_EULER}),
+    F_RKMK4: frozenset({RKMK4}),
+    F_GENERAL: frozenset(KINDS),
+}
+
+
+def _members() -> np.ndarray:
+    table = np.zeros((len(FAMILIES), max(KINDS) + 1), dtype=np.bool_)
+    for code, members in FAMILIES.items():
+        table[code, sorted(members)] = True
+    table.flags.writeable = False
+    return table
+
+
+#: ``MEMBERS[family, kind]``: whether the family's driver runs the kind (the driver checks
+#: every stage of a table against it once, before stepping)
+MEMBERS = _members()
+
+
+def family_of(kinds) -> int:
+    """The smallest driver family that runs every kind in ``kinds``."""
+    need = {int(k) for k in kinds}
+    unknown = need - set(KINDS)
+    if unknown:
+        raise ValueError(f"unknown stage kind(s) {sorted(unknown)}; known: {sorted(KINDS)}")
+    for code, members in FAMILIES.items():
+        if need <= members:
+            return code
+    raise AssertionError("F_GENERAL holds every kind")  # pragma: no cover

@@ -12,21 +12,15 @@ so the driver is compiled once and cached whatever the user's function is.
 
 from __future__ import annotations
 
-from numba import cfunc, njit, types
+from numba import cfunc, types
 
+from liebody._kernels._jit import jit
 from liebody._kernels.quat import qexp, qmul, qrotate_inv
-from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_NONE, TORQUE_USER  # noqa: F401
+from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_USER
 
 TORQUE_SIG = types.UniTuple(types.float64, 3)(
     types.float64, types.float64, types.float64, types.float64, types.float64,
     types.float64, types.float64, types.float64)
-
-
-
-@cfunc(TORQUE_SIG, cache=True)
-def no_torque(t, w, x, y, z, m1, m2, m3):
-    """The torque of a scene without a user torque (never called by its stage tables)."""
-    return 0.0, 0.0, 0.0
 
 
 def adapt_user_torque(user):
@@ -49,13 +43,13 @@ def adapt_user_torque(user):
     return adapter
 
 
-@njit(cache=True)
+@jit
 def vertical_in_body(w, x, y, z):
     """``Gamma = R(q)^T e_z``: the space vertical in body coordinates (third row of R)."""
     return (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
 
 
-@njit(cache=True)
+@jit
 def gravity_torque(w, x, y, z, c1, c2, c3):
     """Body torque ``Gamma x c`` of the potential ``V = c . Gamma`` (``c = M g cm``).
 
@@ -66,17 +60,23 @@ def gravity_torque(w, x, y, z, c1, c2, c3):
     return g2 * c3 - g3 * c2, g3 * c1 - g1 * c3, g1 * c2 - g2 * c1
 
 
-@njit(cache=True)
+@jit
 def torque_value(kind, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn):
-    """Body torque of the scene: none, uniform gravity (``c = M g cm``) or the user's."""
+    """Body torque of the scene: none, uniform gravity (``c = M g cm``) or the user's.
+
+    ``torque_fn`` is the user's callback, or ``None`` for scenes without one: the
+    compiler then drops the call (no callback is typed or passed).
+    """
     if kind == TORQUE_GRAVITY:
         return gravity_torque(w, x, y, z, c1, c2, c3)
+    if torque_fn is None:
+        return 0.0, 0.0, 0.0
     if kind == TORQUE_USER:
         return torque_fn(t, w, x, y, z, m1, m2, m3)
     return 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
+@jit
 def damping_rate(m1, m2, m3, I1, I2, I3, eps):
     """Extra body angular velocity ``eps (m x omega)`` of the double-bracket dissipation.
 
@@ -87,7 +87,7 @@ def damping_rate(m1, m2, m3, I1, I2, I3, eps):
     return eps * (m2 * o3 - m3 * o2), eps * (m3 * o1 - m1 * o3), eps * (m1 * o2 - m2 * o1)
 
 
-@njit(cache=True)
+@jit
 def damping_flow(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, tau):
     """Second-order step of the dissipative part ``m' = m x Od(m)``, ``q' = q (0, Od)/2``.
 

@@ -1,4 +1,4 @@
-"""Leading modified-Hamiltonian term of symmetric splittings of the free rigid body.
+"""Which axis ordering? The leading modified-Hamiltonian term of free-body splittings.
 
 A palindromic splitting ``X1(h/2) X2(h/2) ... Xk(h) ... X2(h/2) X1(h/2)`` of
 ``T = X1 + ... + Xk`` into quadratic pieces ``Xi = m^T D_i m / 2`` (``D_i``
@@ -6,18 +6,23 @@ diagonal) exactly preserves a modified Hamiltonian ``T + h^2 H3 + O(h^4)`` with
 
     H3 = sum_{i<k} [ -(1/24) {Xi, {Xi, Ri}} + (1/12) {Ri, {Ri, Xi}} ],  Ri = X_{i+1} + ... + Xk,
 
-(nested BCH, literature section 1.3; bracket ``{F, G}(m) = -m . (grad F x grad G)``).
+(nested Baker–Campbell–Hausdorff formula; Hairer, Lubich & Wanner, *Geometric Numerical
+Integration*, 2006, sect. III.5; bracket ``{F, G}(m) = -m . (grad F x grad G)``).
 The energy error along a run is therefore ``-h^2 [H3(m_n) - H3(m_0)]`` to leading
 order, and its size is the range of ``H3`` over the orbit of ``m0``. The orbit's
 squares ``u = m^2`` fill the segment ``{u >= 0, sum u = |m|^2, sum u/I = 2T}``, so the
 range is found by sampling that segment.
 
-This module is the numerical counterpart of the closed forms in the literature
-(checked against them in the tests); :mod:`liebody.registry` uses it to choose the
-axis ordering of ``splitting2`` and the base of the compositions.
+This module is the numerical counterpart of the closed forms of Fassò (2003) and
+McLachlan (1993) (checked against them in the tests); the splitting recipes of
+:mod:`liebody._plan` use :func:`best_axis_ordering` and :func:`best_sr2_variant` to
+choose the axis ordering of ``splitting2`` and the base of the compositions.
 """
 
 from __future__ import annotations
+
+import functools
+import itertools
 
 import numpy as np
 
@@ -118,3 +123,75 @@ def energy_error_constant(pieces: list[np.ndarray], moments, m0) -> float:
     """``max - min`` of ``H3`` over the orbit of ``m0`` for one splitting."""
     return float(energy_error_constants([np.asarray(p)[None, :] for p in pieces],
                                         moments, m0)[0])
+
+
+# ----------------------------------------------------------------------------------------
+# the orderings of the two second-order splittings, scored on an orbit
+# ----------------------------------------------------------------------------------------
+
+#: the six orderings (permutations of the body axes)
+ORDERINGS = tuple(itertools.permutations(range(3)))
+
+
+def axis_pieces(moments, ordering) -> list[np.ndarray]:
+    """Diagonals of ``T_a, T_b, T_c`` (``T_k = m_k^2 / (2 I_k)``) for ``a-b-c-b-a``."""
+    pieces = []
+    for i in ordering:
+        d = np.zeros(3)
+        d[i] = 1.0 / moments[i]
+        pieces.append(d)
+    return pieces
+
+
+def sr2_rates(moments, variant) -> tuple[float, float]:
+    """Rates of SR2 variant ``(a, b, c)``: ``R = r_b m_b^2/2`` and the ``m_c^2/2`` part of ``S``.
+
+    ``S = |m|^2 / (2 I_a) + (1/I_c - 1/I_a) m_c^2 / 2`` is a symmetric body (exact,
+    trig only) and ``R = (1/I_b - 1/I_a) m_b^2 / 2`` the rest; the step is
+    ``R(h/2) S(h) R(h/2)`` (Touma & Wisdom 1994; Hairer & Vilmart 2006).
+    """
+    a, b, c = variant
+    return 1.0 / moments[b] - 1.0 / moments[a], 1.0 / moments[c] - 1.0 / moments[a]
+
+
+def sr2_pieces(moments, variant) -> list[np.ndarray]:
+    """Diagonals of ``R`` and ``S`` for SR2 variant ``(a, b, c)``."""
+    a, b, c = variant
+    rate_r, rate_c = sr2_rates(moments, variant)
+    R = np.zeros(3)
+    R[b] = rate_r
+    S = np.full(3, 1.0 / moments[a])
+    S[c] += rate_c
+    return [R, S]
+
+
+@functools.lru_cache(maxsize=256)
+def _best(pieces_of, moments: tuple, u0: tuple) -> tuple[tuple[int, int, int], float]:
+    """The ordering with the smallest energy-error constant, and that constant.
+
+    Cached on (splitting family, moments, ``m0^2``): the orbit, hence the choice,
+    depends on nothing else, and repeated runs from one initial state skip the set-up.
+    """
+    m0 = np.sqrt(np.array(u0))
+    per_ordering = [pieces_of(moments, v) for v in ORDERINGS]
+    levels = [np.array([p[i] for p in per_ordering]) for i in range(len(per_ordering[0]))]
+    scores = energy_error_constants(levels, moments, m0)
+    k = int(np.argmin(scores))
+    return ORDERINGS[k], float(scores[k])
+
+
+def _key(moments, m0) -> tuple[tuple, tuple]:
+    return tuple(float(v) for v in moments), tuple(float(v) ** 2 for v in m0)
+
+
+def best_axis_ordering(moments, m0) -> tuple[tuple[int, int, int], float]:
+    """The axis ordering ``(a, b, c)`` of ``a-b-c-b-a`` with the smallest energy-error constant.
+
+    Returns the ordering and its constant (the range of ``H3`` over the orbit of ``m0``).
+    """
+    return _best(axis_pieces, *_key(moments, m0))
+
+
+def best_sr2_variant(moments, m0) -> tuple[tuple[int, int, int], float]:
+    """The SR2 variant with the smallest energy-error constant (0 for a symmetric body)."""
+    return _best(sr2_pieces, *_key(moments, m0))

@@ -60,7 +60,7 @@ def test_methods_doc_is_the_registry():
 
     import liebody
 
-    doc = (Path(__file__).parents[1] / "docs" / "methods.md").read_text()
+    doc = (Path(__file__).parents[2] / "docs" / "methods.md").read_text()
     start = doc.index("<!-- methods-table -->") + len("<!-- methods-table -->")
     end = doc.index("<!-- /methods-table -->")
     assert doc[start:end].strip() == liebody.methods().to_markdown()
@@ -71,6 +71,6 @@ def test_readme_example_runs():
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
     block = re.search(r"## A first look\n\n```python\n(.*?)```", readme, re.S).group(1)
     exec(compile(block, "README.md", "exec"), {})

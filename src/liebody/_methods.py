@@ -1,0 +1,383 @@
+"""The method catalogue: every integrator is a :class:`Method` record, registered once.
+
+A method is data: a name, its order and properties, what scenes it can handle, and
+a *recipe* (:mod:`liebody._plan`) that builds its stage table for a scene, initial
+state and step. Compositions are a coefficient table applied to a second-order base
+recipe. :func:`methods` renders the catalogue as a table, so the documentation and
+the tests read one truth; adding a method is one :func:`register` call.
+
+Example: a fixed-ordering Strang splitting, integrable at once by
+:func:`liebody.integrate` and picked up by the generic tests::
+
+    from liebody import Method, register
+    from liebody._plan import AxisSplitting
+    register(Method("strang123", AxisSplitting(ordering=(0, 1, 2)), order=2,
+                    family="splitting", symplectic=True, reversible=True,
+                    keeps_casimir=True, keeps_energy=False, handles=Handles.ALL,
+                    cost="4 axis rotations"))
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from liebody import _plan as P
+from liebody._kernels import stages as S
+from liebody.scenes import DEPENDENCIES, Capabilities
+
+__all__ = ["COMPOSITIONS", "Handles", "Method", "MethodTable", "get", "methods", "register"]
+
+
+# ----------------------------------------------------------------------------------------
+# what a method can integrate
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Handles:
+    """What a method can integrate, matched against a scene's :class:`~liebody.scenes.Capabilities`.
+
+    Attributes
+    ----------
+    torque : frozenset of str
+        The torque dependencies it handles (``"time"``, ``"orientation"``,
+        ``"momentum"``); empty: free bodies only.
+    dissipation : bool
+        Whether it handles internal dissipation.
+    """
+
+    torque: frozenset = frozenset()
+    dissipation: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "torque", frozenset(self.torque))
+
+    def accepts(self, caps: Capabilities) -> bool:
+        return caps.torque <= self.torque and (self.dissipation or not caps.dissipative)
+
+    def describe(self) -> str:
+        if not self.torque and not self.dissipation:
+            return "free body"
+        parts = ["any torque" if self.torque == frozenset(DEPENDENCIES)
+                 else "torque(" + ", ".join(sorted(self.torque)) + ")"] if self.torque else []
+        if self.dissipation:
+            parts.append("dissipation")
+        return ", ".join(parts)
+
+
+# the three usual cases, as class attributes: Handles.FREE, Handles.TORQUES, Handles.ALL
+Handles.FREE = Handles()
+Handles.TORQUES = Handles(frozenset(DEPENDENCIES))
+Handles.ALL = Handles(frozenset(DEPENDENCIES), dissipation=True)
+
+
+# ----------------------------------------------------------------------------------------
+# the record
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered integrator and its declared properties.
+
+    Attributes
+    ----------
+    name
+        Public name passed as ``integrate(..., method=name)``.
+    recipe
+        Builds the method's stage table for a scene, initial state and step
+        (:mod:`liebody._plan`).
+    order
+        Classical order (``math.inf`` for the exact flow).
+    family
+        A descriptive word for tables and charts: ``"splitting"``, ``"composition"``,
+        ``"rattle"``, ``"exact"`` or ``"baseline"`` (nothing dispatches on it).
+    symplectic, reversible
+        Symplectic (Lie–Poisson in ``L``) and time-reversible (symmetric). On torqued
+        scenes these hold for conservative, orientation-only torques.
+    keeps_casimir
+        On a free body: keeps ``|L|`` (and, for every method that acts by rotations,
+        spatial ``L``) to round-off.
+    keeps_energy
+        On a free body: keeps the energy to round-off.
+    handles
+        What scenes it can integrate (:class:`Handles`).
+    cost
+        Cost of one step in words (measured figures: ``bench/README.md``).
+    description
+        One or two sentences for the documentation.
+    sampled
+        ``integrate()`` evaluates the method at the output times directly instead of
+        stepping (the exact flow): no time is spent between samples.
+    """
+
+    name: str
+    recipe: P.Recipe
+    order: float
+    family: str
+    symplectic: bool
+    reversible: bool
+    keeps_casimir: bool
+    keeps_energy: bool
+    handles: Handles
+    cost: str
+    description: str = ""
+    sampled: bool = False
+
+    @property
+    def coefficients(self) -> tuple[float, ...]:
+        """Composition coefficients applied to the base (``(1.0,)`` for a base method)."""
+        return self.recipe.coefficients
+
+    def supports(self, scene) -> bool:
+        """Whether the method can integrate ``scene`` (by its capabilities)."""
+        return self.handles.accepts(scene.capabilities)
+
+    def plan(self, scene, m0, h: float) -> P.Plan:
+        """The method's stage table for ``scene``, initial body momentum ``m0`` and step ``h``."""
+        try:
+            stages, info = self.recipe.stages(scene, np.asarray(m0, dtype=float), float(h))
+        except ValueError as exc:  # a recipe's refusal: say which method refused
+            raise ValueError(f"{self.name}: {exc}") from None
+        return P.compile_plan(stages, info)
+
+
+# ----------------------------------------------------------------------------------------
+# composition coefficients (palindromic, the full list in order)
+# ----------------------------------------------------------------------------------------
+
+
+def _palindrome(half: tuple[float, ...], centre: float) -> tuple[float, ...]:
+    return (*half, centre, *reversed(half))
+
+
+_SUZUKI_G = 1.0 / (4.0 - 4.0 ** (1.0 / 3.0))
+
+#: name -> palindromic coefficients ``g_i`` of ``S(g_s h) ... S(g_1 h)``
+COMPOSITIONS: dict[str, tuple[float, ...]] = {
+    "strang": (1.0,),
+    # Suzuki, Phys. Lett. A 146 (1990) 319: 5 stages, order 4
+    "suzuki4": _palindrome((_SUZUKI_G, _SUZUKI_G), 1.0 - 4.0 * _SUZUKI_G),
+    # Kahan & Li, Math. Comp. 66 (1997) 1089, s9odr6: order 6
+    "kahanli6": _palindrome(
+        (0.39216144400731413928, 0.33259913678935943860, -0.70624617255763935981,
+         0.08221359629355080023),
+        0.79854399093482996340),
+    # Kahan & Li (1997), s17odr8: order 8
+    "kahanli8": _palindrome(
+        (0.13020248308889008088, 0.56116298177510838456, -0.38947496264484728641,
+         0.15884190655515560090, -0.39590389413323757734, 0.18453964097831570709,
+         0.25837438768632204729, 0.29501172360931029887),
+        -0.60550853383003451170),
+}
+
+
+def check_composition(coefficients, order: float) -> tuple[float, ...]:
+    """Validate composition coefficients for a symmetric second-order base.
+
+    They must be finite, palindromic, sum to 1, and for a declared order ``p >= 4``
+    satisfy the necessary power conditions ``sum g^(2k+1) = 0`` for ``k = 1 .. p/2 - 1``
+    (order 4 needs nothing more; higher orders need further conditions on nested sums,
+    which the observed-order tests check).
+    """
+    g = np.asarray(coefficients, dtype=float)
+    if g.ndim != 1 or g.size == 0 or not np.all(np.isfinite(g)):
+        raise ValueError(f"coefficients must be a non-empty list of finite numbers, got {g}")
+    if not np.allclose(g, g[::-1], rtol=0, atol=1e-15):
+        raise ValueError("coefficients must be palindromic (a symmetric composition)")
+    if abs(g.sum() - 1.0) > 1e-14:
+        raise ValueError(f"coefficients must sum to 1 (consistency), got {g.sum()!r}")
+    for k in range(1, int(order) // 2):
+        p = 2 * k + 1
+        if abs(float(np.sum(g**p))) > 1e-13 * float(np.sum(np.abs(g) ** p)):
+            raise ValueError(f"coefficients do not give order {order}: sum g^{p} = "
+                             f"{float(np.sum(g**p)):.3e} must vanish")
+    return tuple(float(v) for v in g)
+
+
+# ----------------------------------------------------------------------------------------
+# the registry
+# ----------------------------------------------------------------------------------------
+
+_REGISTRY: dict[str, Method] = {}
+
+
+def register(method: Method, *, replace: bool = False) -> Method:
+    """Add ``method`` to the catalogue (``replace=True`` to redefine a name).
+
+    A registered method is integrable by :func:`liebody.integrate`, listed by
+    :func:`methods` and picked up by the generic tests at once.
+    """
+    if not isinstance(method, Method):
+        raise TypeError(f"method must be a liebody.Method, got {type(method).__name__}")
+    if not isinstance(method.name, str) or not method.name.isidentifier():
+        raise ValueError(f"a method name must be an identifier, got {method.name!r}")
+    if method.name in _REGISTRY and not replace:
+        raise ValueError(f"a method named {method.name!r} is registered already "
+                         f"(pass replace=True to redefine it)")
+    if not isinstance(method.recipe, P.Recipe):
+        raise TypeError(f"recipe must be a liebody._plan.Recipe, got "
+                        f"{type(method.recipe).__name__}")
+    if isinstance(method.recipe, P.Composition):
+        check_composition(method.recipe.coefficients, method.order)
+    _REGISTRY[method.name] = method
+    return method
+
+
+def _composition(name: str, table: str, order: int) -> Method:
+    return Method(
+        name, P.Composition(P.BestSplitting(), COMPOSITIONS[table]), order, "composition",
+        True, True, True, False, Handles.TORQUES,
+        f"{len(COMPOSITIONS[table])} base steps ({table})",
+        description=f"{table} composition of the best second-order splitting for the orbit.")
+
+
+def _dmv(order: int) -> Method:
+    return Method(
+        f"dmv{order}", P.DMVFlow(order), order, "rattle", False, True, True, True,
+        Handles.FREE, "1 DMV step with modified moments (same cost as rattle)",
+        description=f"Hairer–Vilmart preprocessed DMV of order {order} (modified moments "
+                    "from the invariants); Poisson in L but not symplectic for (q, L).")
+
+
+def _baseline(name: str, kind: int, order: int, keeps_casimir: bool, cost: str,
+              description: str) -> Method:
+    return Method(name, P.Baseline(kind), order, "baseline", False, False, keeps_casimir,
+                  False, Handles.ALL, cost, description=description)
+
+
+for _m in (
+    Method("exact", P.ExactFlow(), math.inf, "exact", True, True, True, True, Handles.FREE,
+           "one elliptic-function evaluation per output sample (no time stepping)",
+           description="Exact free-body flow (Jacobi elliptic functions, Carlson R_F/R_J; "
+                       "trig functions only for symmetric bodies), evaluated at the output "
+                       "times.",
+           sampled=True),
+    Method("splitting2", P.AxisSplitting(), 2, "splitting", True, True, True, False,
+           Handles.ALL, "4 axis rotations (4 sin/cos pairs), end rotations merged",
+           description="Symmetric 5-rotation splitting of T into exact axis sub-flows; the "
+                       "axis ordering is chosen per orbit from the leading "
+                       "modified-Hamiltonian term."),
+    Method("no_squish", P.AxisSplitting(ordering=(2, 1, 0)), 2, "splitting", True, True, True,
+           False, Handles.ALL, "4 axis rotations (4 sin/cos pairs), end rotations merged",
+           description="The 5-rotation splitting in the fixed ordering z-y-x-y-z of NO_SQUISH "
+                       "(Miller et al., J. Chem. Phys. 116 (2002) 8649), as molecular-dynamics "
+                       "codes run it: the same map, written in (q, L); often a worse "
+                       "ordering than splitting2's."),
+    Method("sr2", P.SR2Splitting(), 2, "splitting", True, True, True, False, Handles.FREE,
+           "1 quaternion exponential + 2 axis rotations",
+           description="Symmetric-body + one-rotation splitting (Touma–Wisdom, "
+                       "Hairer–Vilmart SR2): exact for symmetric bodies, far more accurate "
+                       "for nearly symmetric ones."),
+    Method("rattle", P.DMVFlow(2), 2, "rattle", True, True, True, True, Handles.TORQUES,
+           "1 implicit 3x3 solve (about 5-8 fixed-point iterations, no trig)",
+           description="RATTLE on SO(3) in its discrete Moser–Veselov quaternion form; the "
+                       "implicit equation is solved to round-off (fixed point, Newton "
+                       "fallback)."),
+    _composition("splitting4", "suzuki4", 4),
+    _composition("splitting6", "kahanli6", 6),
+    _composition("splitting8", "kahanli8", 8),
+    _dmv(4), _dmv(6), _dmv(8), _dmv(10),
+    _baseline("euler", S.EULER, 1, False, "1 right-hand side",
+              "Explicit Euler on (q, L) in R^7, no renormalisation: energy, |L| and |q| grow "
+              "every step. Kept to show failure."),
+    _baseline("rk4", S.RK4, 4, False, "4 right-hand sides",
+              "Classical RK4 on (q, L) in R^7, no renormalisation: energy, |L| and |q| "
+              "drift. Kept to show failure."),
+    _baseline("lie_euler", S.LIE_EULER, 1, True, "1 quaternion exponential",
+              "Lie–Euler (coadjoint form): stays on SO(3), keeps |L|, drives L to the "
+              "maximum-energy axis."),
+    _baseline("rkmk4", S.RKMK4, 4, True, "4 quaternion exponentials",
+              "Runge–Kutta–Munthe-Kaas with the RK4 tableau: on SO(3), keeps |L|, energy "
+              "drifts linearly."),
+):
+    register(_m)
+
+
+# ----------------------------------------------------------------------------------------
+# the table
+# ----------------------------------------------------------------------------------------
+
+
+class MethodTable(tuple):
+    """The catalogue as an immutable sequence of :class:`Method`, printed as a table."""
+
+    _cols = ("name", "family", "order", "symplectic", "reversible", "keeps_casimir",
+             "keeps_energy", "handles", "cost")
+
+    def names(self) -> list[str]:
+        return [m.name for m in self]
+
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            for m in self:
+                if m.name == key:
+                    return m
+            raise KeyError(key)
+        return super().__getitem__(key)
+
+    def rows(self) -> Iterator[tuple[str, ...]]:
+        for m in self:
+            vals = []
+            for c in self._cols:
+                v = getattr(m, c)
+                if c == "order":
+                    v = "exact" if math.isinf(v) else str(int(v))
+                elif c == "handles":
+                    v = v.describe()
+                elif isinstance(v, bool):
+                    v = "yes" if v else "no"
+                vals.append(str(v))
+            yield tuple(vals)
+
+    def __str__(self) -> str:
+        rows = [self._cols, *self.rows()]
+        widths = [max(len(r[i]) for r in rows) for i in range(len(self._cols))]
+        lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+                 for r in rows]
+        lines.insert(1, "  ".join("-" * w for w in widths))
+        return "\n".join(lines)
+
+    def to_markdown(self) -> str:
+        """The table in Markdown (``docs/methods.md`` embeds it; a test keeps it current)."""
+        head = "| " + " | ".join(self._cols) + " |"
+        rule = "|" + "---|" * len(self._cols)
+        body = ["| " + " | ".join(r) + " |" for r in self.rows()]
+        return "\n".join([head, rule, *body])
+
+    def _repr_pretty_(self, p, cycle):  # pragma: no cover - IPython display
+        p.text(str(self))
+
+
+def methods() -> MethodTable:
+    """All registered methods with their declared properties (a printable table)."""
+    return MethodTable(_REGISTRY.values())
+
+
+def get(name) -> Method:
+    """Look a method up by name (a :class:`Method` is returned unchanged)."""
+    if isinstance(name, Method):
+        return name
+    if not isinstance(name, str):
+        raise TypeError(f"method must be a method name (str), got {type(name).__name__}")
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        known = ", ".join(sorted(_REGISTRY))
+        raise ValueError(f"unknown method {name!r}; known methods: {known}") from None
+
+
+def check_supports(method: Method, scene) -> None:
+    """Raise a ``ValueError`` naming the rule when ``method`` cannot integrate ``scene``."""
+    if method.supports(scene):
+        return
+    caps = scene.capabilities
+    able = [m.name for m in _REGISTRY.values() if m.supports(scene)]
+    raise ValueError(
+        f"method {method.name!r} cannot integrate this {type(scene).__name__}: the scene has "
+        f"{caps.describe()}, and {method.name} handles {method.handles.describe()} only; "
+        f"methods that can: {', '.join(able)}")

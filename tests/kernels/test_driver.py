@@ -1,0 +1,123 @@
+"""The driver and the stage contract: families, unknown kinds, allocation, direct kernels."""
+
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+import pytest
+
+import liebody
+from liebody._kernels import stages as S
+from liebody._plan import Stage, compile_plan
+from support import drive
+
+
+def test_every_kind_has_a_contract_entry_and_a_general_family():
+    assert set(S.KINDS) == set(S.FAMILIES[S.F_GENERAL])
+    for code, kind in S.KINDS.items():
+        assert all(p in S.SLOTS for p in kind.params), (code, kind)
+        assert S.family_of([code]) != S.F_GENERAL  # every kind has a small family
+    assert len(set(S.SLOTS.values())) == S.N_PARAMS  # one meaning per slot
+
+
+def test_unknown_stage_kind_is_an_error():
+    with pytest.raises(ValueError, match="unknown stage kind 99"):
+        Stage(99, 1.0)
+    with pytest.raises(ValueError, match=r"unknown stage kind\(s\) \[42\]"):
+        S.family_of([S.AXIS, 42])
+
+
+@pytest.mark.parametrize(("kinds", "family"), [
+    ([S.AXIS], S.F_AXES),
+    ([S.AXIS, S.SPHERE], S.F_ROTATIONS),
+    ([S.KICK, S.AXIS_RECURRING, S.SPHERE], S.F_SPLITTING),
+    ([S.KICK, S.DMV, S.KICK_IMPLICIT], S.F_DMV),
+    ([S.DAMP, S.EXACT], S.F_EXACT),
+    ([S.RK4], S.F_RK4),
+    ([S.DMV, S.AXIS], S.F_GENERAL),
+])
+def test_plans_run_in_the_smallest_family(kinds, family):
+    assert S.family_of(kinds) == family
+
+
+def test_methods_compile_only_their_family(hlw):
+    """A free-body splitting runs in the axis-only family; torqued ones add kicks only."""
+    scene, L0 = hlw
+    fam = {m.name: m.plan(scene, L0, 0.01).family for m in liebody.methods()}
+    assert fam["splitting2"] == fam["no_squish"] == S.F_AXES
+    assert fam["sr2"] == S.F_ROTATIONS and fam["rattle"] == fam["dmv6"] == S.F_DMV
+    assert fam["rk4"] == S.F_RK4 and fam["exact"] == S.F_EXACT
+    top = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0, [0, 0, 1.0], g=1.0)
+    assert liebody.methods()["splitting4"].plan(top, L0, 0.01).family == S.F_SPLITTING
+
+
+@pytest.mark.kernel
+def test_a_kind_outside_the_family_stops_the_run(hlw):
+    """The driver never runs a stage its family does not hold: it returns STATUS_BAD_STAGE."""
+    scene, L0 = hlw
+    plan = compile_plan([Stage(S.DMV, 1.0, 1.0, moments=tuple(scene.moments))])
+    plan.family = S.F_ROTATIONS  # a corrupted plan
+    state = np.concatenate([[1.0, 0.0, 0.0, 0.0], L0])
+    done, saved, status = drive(plan, 0.1, 3, state, np.empty((3, 4)), np.empty((3, 3)))
+    assert (done, saved, status) == (0, 0, S.STATUS_BAD_STAGE)
+    np.testing.assert_array_equal(state[4:], L0)
+
+
+def test_driver_loop_allocates_nothing(hlw):
+    """The compiled driver contains no heap allocation (NRT_MemInfo_alloc*/NRT_Allocate).
+
+    The driver is recompiled without the disk cache (cached code cannot be inspected),
+    and a function that does allocate shows the pattern is found when present.
+    """
+    import numba
+
+    if os.environ.get("NUMBA_DISABLE_JIT") == "1":
+        pytest.skip("needs the compiled kernel")
+    from liebody._kernels import driver
+
+    pattern = re.compile(r"NRT_MemInfo_alloc\w*|NRT_Allocate\w*")
+
+    @numba.njit
+    def allocates(n):
+        return np.empty(n).sum()
+
+    allocates(3)
+    assert all(pattern.search(ir) for ir in allocates.inspect_llvm().values())
+
+    # the family drivers recompiled without the disk cache
+    fresh = {f: numba.njit(r.py_func) for f, r in driver.RUNNERS.items()}
+    scene, L0 = hlw
+    top = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0, [0, 0, 1.0], g=1.0)
+    families = set()
+    for name, sc in (("splitting2", scene), ("sr2", scene), ("rattle", scene), ("rk4", scene),
+                     ("splitting4", top)):
+        plan = liebody.methods()[name].plan(sc, L0, 0.1)
+        state = np.concatenate([[1.0, 0.0, 0.0, 0.0], L0])
+        drive(plan, 0.1, 3, state, np.empty((3, 4)), np.empty((3, 3)), runners=fresh)
+        families.add(plan.family)
+    assert len(families) == 5
+    for f in families:
+        irs = fresh[f].inspect_llvm()
+        assert len(irs) == 1
+        for ir in irs.values():
+            assert "define" in ir and not pattern.search(ir)
+
+
+@pytest.mark.kernel
+def test_dmv_kernel_finds_roots_the_fixed_point_misses():
+    """A case where Gauss-Seidel diverges: the root found solves the equation to rounding."""
+    from liebody._kernels.flows import _dmv_residual, dmv_step
+
+    I = np.array([0.5302758, 2.84320303, 1.15931761])
+    m = np.array([0.10168855, -0.62317829, -1.65738965])
+    h = 0.8207302663804338
+    out = dmv_step(1.0, 0.0, 0.0, 0.0, *m, *I, h)
+    assert out[7] > 0
+    # recover c from the increment q = (1, c)/sqrt(1 + |c|^2) and check the equation
+    c = np.array(out[1:4]) / out[0]
+    a = 0.5 * h * m / I
+    f = ((I[1] - I[2]) / I[0], (I[2] - I[0]) / I[1], (I[0] - I[1]) / I[2])
+    assert np.abs(_dmv_residual(*c, *a, *f)).max() < 1e-14
+    assert abs(np.linalg.norm(out[4:7]) - np.linalg.norm(m)) < 1e-15

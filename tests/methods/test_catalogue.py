@@ -1,0 +1,136 @@
+"""The method catalogue: records, composition tables, registration, capability matching.
+
+Every registered method is exercised by the generic tests of this tier, so a method
+is tested the moment it is registered (``no_squish`` below is one ``register`` call
+in ``liebody._methods`` and nothing else).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import liebody
+from liebody import _methods
+from liebody import _plan as P
+
+
+def test_registry_public_names():
+    names = set(liebody.methods().names())
+    assert {"splitting2", "sr2", "rattle", "splitting4", "splitting6", "splitting8", "exact",
+            "euler", "rk4", "lie_euler", "rkmk4", "no_squish"} <= names
+
+
+@pytest.mark.parametrize("name", sorted(_methods.COMPOSITIONS))
+def test_composition_tables_palindromic_consistent(name):
+    g = np.array(_methods.COMPOSITIONS[name])
+    np.testing.assert_array_equal(g, g[::-1])
+    assert abs(g.sum() - 1.0) < 1e-15
+    if len(g) > 1:  # order >= 4 needs the cubic condition
+        assert abs(np.sum(g**3)) < 1e-15
+
+
+def test_methods_table_reads_the_registry():
+    table = liebody.methods()
+    text = str(table)
+    for m in table:
+        assert m.name in text
+        assert m.order >= 1
+        assert m.handles.describe() in text
+        if m.family == "composition":
+            assert m.coefficients in _methods.COMPOSITIONS.values()
+            assert m.symplectic and m.reversible
+    assert table["rattle"].keeps_energy and not table["rk4"].keeps_casimir
+    with pytest.raises(KeyError):
+        table["nope"]
+
+
+# --------------------------------------------------------------------------- registering
+
+
+def _strang(name: str, ordering=(0, 1, 2)) -> liebody.Method:
+    return liebody.Method(name, P.AxisSplitting(ordering=ordering), 2, "splitting", True, True,
+                          True, False, liebody.Handles.ALL, "4 axis rotations")
+
+
+def test_a_new_base_splitting_is_one_register_call(hlw):
+    """A fixed-ordering Strang splitting registered at run time integrates at once, at
+    order 2, and is the 5-rotation splitting in that ordering (the ordering is recorded)."""
+    scene, L0 = hlw
+    method = liebody.register(_strang("strang_021", (0, 2, 1)))
+    try:
+        assert "strang_021" in liebody.methods().names()
+        tr = liebody.integrate(scene, L0=L0, dt=0.01, steps=100, method="strang_021")
+        assert tr.info["axis_ordering"] == (0, 2, 1) and tr.method is method
+        plan = method.plan(scene, L0, 0.01)
+        assert plan.axes.tolist() == [0, 2, 1, 2, 0] and plan.merge_ends
+        ref = liebody.integrate(scene, L0=L0, dt=1.0, steps=1)
+        err = [np.abs(liebody.integrate(scene, L0=L0, dt=h, steps=round(1 / h),
+                                        method="strang_021").L[-1] - ref.L[-1]).max()
+               for h in (0.02, 0.01)]
+        assert abs(np.log2(err[0] / err[1]) - 2.0) < 0.05
+    finally:
+        _methods._REGISTRY.pop("strang_021")
+
+
+def test_register_validates():
+    with pytest.raises(ValueError, match="registered already"):
+        liebody.register(_strang("splitting2"))
+    with pytest.raises(ValueError, match="identifier"):
+        liebody.register(_strang("my method"))
+    with pytest.raises(TypeError, match=r"liebody\.Method"):
+        liebody.register("splitting2")
+    with pytest.raises(ValueError, match="permutation"):
+        P.AxisSplitting(ordering=(0, 0, 1))
+    bad = liebody.Method("bad4", P.Composition(P.BestSplitting(), (0.5, 0.5)), 4,
+                         "composition", True, True, True, False, liebody.Handles.TORQUES, "")
+    with pytest.raises(ValueError, match=r"sum g\^3"):
+        liebody.register(bad)
+    lopsided = liebody.Method("lop", P.Composition(P.BestSplitting(), (0.3, 0.7)), 2,
+                              "composition", True, True, True, False, liebody.Handles.TORQUES, "")
+    with pytest.raises(ValueError, match="palindromic"):
+        liebody.register(lopsided)
+    assert "bad4" not in liebody.methods().names()
+
+
+@pytest.mark.parametrize(("coefficients", "order", "ok"), [
+    ((1.0,), 2, True),
+    (_methods.COMPOSITIONS["suzuki4"], 4, True),
+    (_methods.COMPOSITIONS["kahanli8"], 8, True),
+    ((1 / (2 - 2 ** (1 / 3)), -(2 ** (1 / 3)) / (2 - 2 ** (1 / 3)), 1 / (2 - 2 ** (1 / 3))), 4,
+     True),
+    (_methods.COMPOSITIONS["suzuki4"], 6, False),  # order 4 only: sum g^5 != 0
+    ((0.5, 0.6), 2, False),  # not consistent, not palindromic
+    ((1.0, math.nan, 1.0), 2, False),
+])
+def test_check_composition(coefficients, order, ok):
+    if ok:
+        assert _methods.check_composition(coefficients, order) == tuple(coefficients)
+    else:
+        with pytest.raises(ValueError):
+            _methods.check_composition(coefficients, order)
+
+
+# ---------------------------------------------------------------------- capability match
+
+
+@pytest.mark.parametrize(("method", "scene", "words"), [
+    ("sr2", lambda: liebody.HeavyTop(liebody.RigidBody([1, 1, 0.5]), 1.0, [0, 0, 1]),
+     r"torque\(q\).*sr2 handles free body only"),
+    ("exact", lambda: liebody.DampedBody(liebody.RigidBody([1, 2, 2.5]), 0.1),
+     "dissipation"),
+    ("rattle", lambda: liebody.DampedBody(liebody.RigidBody([1, 2, 2.5]), 0.1),
+     "rattle handles any torque only"),
+])
+def test_methods_that_cannot_handle_the_scene_say_why(method, scene, words):
+    with pytest.raises(ValueError, match=words):
+        liebody.integrate(scene(), L0=(1.0, 0.5, 0.2), dt=0.1, steps=1, method=method)
+
+
+def test_every_method_declares_what_it_handles():
+    free = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    for m in liebody.methods():
+        assert m.supports(free)
+        assert isinstance(m.handles, liebody.Handles)

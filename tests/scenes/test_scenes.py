@@ -1,0 +1,163 @@
+"""Scenes declare capabilities; methods match them by capability, never by name.
+
+New scenes are subclasses (of a concrete scene, or of :class:`liebody.Scene` itself),
+and every method that can handle what they declare integrates them with no change
+anywhere else. References: scipy's DOP853 at rtol 1e-13 on the equations of motion
+written out here, and the energy of a conservative torque.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+from scipy.integrate import solve_ivp
+
+import liebody
+from liebody import quaternion as Q
+from liebody.scenes import TorqueModel
+from support import rotation_distance
+
+N_GG = 0.7  # orbital rate of the gravity-gradient field
+
+
+@njit
+def _gravity_gradient(t, q, L):
+    """3 n^2 c x (I c), c = R(q)^T e_x, for I = (1, 2, 3) (the field direction fixed)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    c1 = w * w + x * x - y * y - z * z
+    c2 = 2.0 * (x * y - w * z)
+    c3 = 2.0 * (x * z + w * y)
+    k = 3.0 * 0.7 * 0.7
+    return np.array([k * (c2 * 3.0 * c3 - c3 * 2.0 * c2), k * (c3 * 1.0 * c1 - c1 * 3.0 * c3),
+                     k * (c1 * 2.0 * c2 - c2 * 1.0 * c1)])
+
+
+class GravityGradientSatellite(liebody.TorqueBody):
+    """A new scene in one place: a rigid satellite in a (frozen) gravity-gradient field.
+
+    ``V = (3 n^2 / 2) c . I c`` with ``c`` the field direction in the body frame.
+    """
+
+    def __init__(self) -> None:
+        super().__init__(liebody.RigidBody([1.0, 2.0, 3.0]), _gravity_gradient,
+                         potential=self._potential, orientation_only=True)
+
+    @staticmethod
+    def _potential(q):
+        c = Q.rotate_inverse(q, [1.0, 0.0, 0.0])
+        return 1.5 * N_GG**2 * c @ (np.array([1.0, 2.0, 3.0]) * c)
+
+
+def _reference(scene, q0, L0, t_end, torque):
+    I = scene.body.moments
+
+    def rhs(t, y):
+        q, L = y[:4], y[4:]
+        om = L / I
+        dq = 0.5 * Q.multiply(q / np.linalg.norm(q), np.r_[0.0, om])
+        return np.concatenate([dq, np.cross(L, om) + torque(t, q, L)])
+
+    sol = solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, L0]), method="DOP853",
+                    rtol=1e-13, atol=1e-13)
+    return sol.y[:4, -1], sol.y[4:, -1]
+
+
+def test_capabilities_are_declared_and_validated():
+    body = liebody.RigidBody([1.0, 2.0, 2.5])
+    assert liebody.FreeBody(body).capabilities.free
+    top = liebody.HeavyTop(body, 1.0, [0, 0, 1])
+    assert top.capabilities.torque == {"orientation"} and top.capabilities.conservative
+    damped = liebody.DampedBody(body, 0.1).capabilities
+    assert damped.dissipative and not damped.conservative and damped.describe() == "dissipation"
+    tb = liebody.TorqueBody(body, _gravity_gradient)
+    assert tb.capabilities.torque == {"time", "orientation", "momentum"}
+    assert tb.capabilities.describe() == "torque(t, q, L)"
+    with pytest.raises(ValueError, match="dependencies must be among"):
+        liebody.Capabilities(torque={"temperature"})
+    with pytest.raises(ValueError, match="not conservative"):
+        liebody.Capabilities(dissipative=True)
+
+
+def test_a_subclassed_top_works_with_every_method_that_handles_tops():
+    """``class MyTop(HeavyTop)`` is a heavy top to every method: same numbers, same methods."""
+
+    class MyTop(liebody.HeavyTop):
+        """A user's top: a subclass with a convenience constructor."""
+
+        def __init__(self, spin_axis_length: float) -> None:
+            super().__init__(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0,
+                             [0.0, 0.0, spin_axis_length], g=1.0)
+
+    mine, base = MyTop(1.0), liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0,
+                                              [0, 0, 1.0], g=1.0)
+    able = [m.name for m in liebody.methods() if m.supports(base)]
+    assert able == [m.name for m in liebody.methods() if m.supports(mine)]
+    assert {"splitting2", "rattle", "splitting4", "rk4"} <= set(able)
+    q0, w0 = Q.exp([0.05, 0.0, 0.0]), [0.0, 0.0, 50.0]
+    for name in able:
+        a = liebody.integrate(mine, q0=q0, omega0=w0, dt=1e-3, steps=200, method=name)
+        b = liebody.integrate(base, q0=q0, omega0=w0, dt=1e-3, steps=200, method=name)
+        np.testing.assert_array_equal(a.L, b.L)
+        np.testing.assert_array_equal(a.q, b.q)
+    assert "MyTop(" in repr(mine)
+
+
+def test_a_subclass_named_freebody_keeps_its_torque():
+    """The old name-based matching integrated a class called FreeBody with its torque ignored."""
+
+    class FreeBody(liebody.TorqueBody):
+        pass
+
+    scene = FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]), _gravity_gradient,
+                     orientation_only=True)
+    q0, L0 = Q.random(rng=8), np.array([0.4, -0.3, 0.9])
+    qr, Lr = _reference(scene, q0, L0, 1.0, _gravity_gradient.py_func)
+    tr = liebody.integrate(scene, q0=q0, L0=L0, dt=1e-3, steps=1000)
+    assert np.abs(tr.L[-1] - Lr).max() < 1e-6 and rotation_distance(tr.q[-1], qr) < 1e-6
+    with pytest.raises(ValueError, match="cannot integrate this FreeBody"):
+        liebody.integrate(scene, q0=q0, L0=L0, dt=1e-3, steps=10, method="exact")
+
+
+@pytest.mark.parametrize("name", ["splitting2", "no_squish", "rattle", "splitting4", "rk4",
+                                  "rkmk4"])
+def test_a_new_scene_integrates_with_every_capable_method(name):
+    """The gravity-gradient satellite, defined in this file only, against DOP853 and its energy."""
+    scene = GravityGradientSatellite()
+    assert liebody.methods()[name].supports(scene)
+    assert scene.capabilities.conservative and "momentum" not in scene.capabilities.torque
+    q0, L0, t_end = Q.random(rng=9), np.array([0.5, -0.8, 1.1]), 2.0
+    qr, Lr = _reference(scene, q0, L0, t_end, _gravity_gradient.py_func)
+    order = liebody.methods()[name].order
+    h = 1e-3 if order == 2 else 1e-2
+    tr = liebody.integrate(scene, q0=q0, L0=L0, dt=h, t_end=t_end, method=name)
+    tol = 0.5 * h**order  # a few times the method's error at this step (~0.1 h^2, ~0.02 h^4)
+    assert np.abs(tr.L[-1] - Lr).max() < tol and rotation_distance(tr.q[-1], qr) < tol
+    dE = np.abs(tr.energy - tr.energy[0]).max()
+    assert dE < tol and np.ptp(tr.potential_energy) > 0.01  # the field does work on the body
+
+
+def test_a_direct_scene_subclass_implements_the_contract():
+    """A scene written from the contract alone: body, capabilities, torque model."""
+
+    @njit
+    def spin_up(t, q, L):  # a constant body torque about axis 3 (a thruster)
+        return np.array([0.0, 0.0, 0.2])
+
+    class Thruster(liebody.Scene):
+        def __init__(self, body):
+            self.body = body
+
+        @property
+        def capabilities(self):
+            return liebody.Capabilities(torque={"time"}, conservative=False)
+
+        def torque_model(self):
+            return TorqueModel.user(spin_up)
+
+    scene = Thruster(liebody.RigidBody([2.0, 2.0, 1.0]))
+    tr = liebody.integrate(scene, L0=[0.0, 0.0, 1.0], dt=0.01, steps=500)
+    np.testing.assert_allclose(tr.L[:, 2], 1.0 + 0.2 * tr.t, atol=1e-12, rtol=0)
+    assert tr.method.name == "splitting2"
+    with pytest.raises(ValueError, match="cannot integrate this Thruster"):
+        liebody.integrate(scene, L0=[0.0, 0.0, 1.0], dt=0.01, steps=5, method="sr2")
