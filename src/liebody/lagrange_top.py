@@ -73,6 +73,10 @@ DOUBLE_ROOT_RTOL: float = 1e-12
 
 _EPS = float(np.finfo(np.float64).eps)
 
+#: The space vertical ``e_z`` (gravity acts along ``-e_z``).
+_E_Z = np.array([0.0, 0.0, 1.0])
+_E_Z.flags.writeable = False
+
 Branch = Literal["slow", "fast"]
 MotionKind = Literal["steady", "monotone", "loops", "cusps", "planar"]
 
@@ -519,7 +523,9 @@ class LagrangeTop:
         ``p_psi = L_3``, ``p_phi = (R L)_z = L_space . e_z``,
         ``cos(theta) = R[2, 2]``, ``E = (L_1^2 + L_2^2) / (2 I1) + L_3^2 / (2 I3)
         + M g l cos(theta)`` and ``E' = (L_1^2 + L_2^2) / (2 I1) + M g l cos(theta)``.
-        The third row of ``R`` is computed directly from ``q`` (no numba kernels).
+        The third row of ``R`` is the space vertical seen from the body,
+        ``gamma = R^T e_z`` (:func:`liebody.quaternion.rotate_inverse`), so
+        ``p_phi = gamma . L`` and ``cos(theta) = gamma_3``.
 
         Parameters
         ----------
@@ -532,14 +538,13 @@ class LagrangeTop:
         -------
         ConservedQuantities
         """
+        from liebody import quaternion  # loads numba: only when a state is given
+
         qq, LL = _state_pair(q, L)
-        w, x, y, z = qq[..., 0], qq[..., 1], qq[..., 2], qq[..., 3]
-        r20 = 2.0 * (x * z - w * y)
-        r21 = 2.0 * (y * z + w * x)
-        r22 = 1.0 - 2.0 * (x * x + y * y)
+        gamma = quaternion.rotate_inverse(qq, _E_Z)  # third row of R(q)
         L1, L2, L3 = LL[..., 0], LL[..., 1], LL[..., 2]
-        p_phi = r20 * L1 + r21 * L2 + r22 * L3
-        e_prime = (L1**2 + L2**2) / (2.0 * self.I1) + self.mgl * r22
+        p_phi = np.sum(gamma * LL, axis=-1)
+        e_prime = (L1**2 + L2**2) / (2.0 * self.I1) + self.mgl * gamma[..., 2]
         energy = e_prime + L3**2 / (2.0 * self.I3)
         return ConservedQuantities(*(_scalar_out(v) for v in (p_phi, L3, energy, e_prime)))
 
