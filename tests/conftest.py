@@ -1,4 +1,8 @@
-"""Shared fixtures: the standard test bodies of the literature (section 8)."""
+"""Shared fixtures: standard test bodies of geometric integration.
+
+The Hairer–Lubich–Wanner body (Geometric Numerical Integration, 2nd ed., Springer 2006)
+and the Hairer–Vilmart body (J. Phys. A 39 (2006) 13225); see docs/references.md.
+"""
 
 from __future__ import annotations
 
