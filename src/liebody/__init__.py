@@ -7,9 +7,13 @@ Conventions (every function follows them)
   :func:`liebody.quaternion.to_scipy` / :func:`~liebody.quaternion.from_scipy`.
 * The body frame is the principal-axis frame of the :class:`RigidBody`; ``L`` and
   ``omega`` are body-frame unless the name says ``_space``.
-* Euler angles are the reference text's z-x-z ``(phi, theta, psi)`` with
-  ``V = V1(phi) V2(theta) V3(psi)`` mapping body to space coordinates.
+* Euler angles are z-x-z ``(phi, theta, psi)`` with
+  ``V = V1(phi) V2(theta) V3(psi)`` mapping body to space coordinates (Hand & Finch,
+  *Analytical Mechanics*, ch. 8).
 * float64 throughout.
+
+Sources (Hand & Finch for the theory; the papers behind each algorithm and test
+problem): docs/references.md; longer derivations: docs/derivations.md.
 
 Importing the package is cheap: submodules (and numba) are loaded on first
 attribute access, and numba kernels compile on first use (cached on disk).

@@ -10,7 +10,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m liebody",
                                      description="liebody: rigid-body rotation on SO(3)")
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="a short tour, checked against the reference text")
+    demo = sub.add_parser("demo", help="a short tour of rigid-body phenomena, checked against "
+                                       "their closed forms")
     demo.add_argument("--plot", metavar="DIR", default=None,
                       help="also write PNG figures to DIR (needs the 'plot' extra)")
     bench = sub.add_parser("bench", help="run the benchmarks (bench/README.md)")

@@ -1,20 +1,24 @@
-"""Closed forms of the reference text's phenomena, and functions that measure them.
+"""Closed forms of classical rigid-body phenomena, and functions that measure them.
 
-Every closed form cites its section of the reference text
-(``shared/theory/rigid-body-dynamics-notes.md``, "the text") or of the literature
-notes (``shared/theory/integrators-literature.md``, "literature"):
+Every closed form cites its source: a topic of the rigid-body chapter of Hand & Finch,
+*Analytical Mechanics* (Cambridge University Press, 1998), ch. 8 ("H&F"), or
+Landau & Lifshitz, *Mechanics*, 3rd ed. (Pergamon, 1976), §37 ("L&L"). Full entries:
+docs/references.md.
 
-=================================  ===================================================
-closed form                        measured from a :class:`~liebody.Trajectory` by
-=================================  ===================================================
-:func:`precession_rate` (1.5)      :func:`wobble_period` (``2 pi / |Omega|``)
-:func:`cone_angles` (1.5.1)        angles of ``omega``, ``L`` and the symmetry axis
-:func:`space_precession_rate`      :func:`measured_space_precession_rate`
-:func:`stability` (1.5.2)          :func:`fit_growth_rate`, :func:`wobble_period`
-:func:`flip_period` (lit. 10)      :func:`zero_crossings` of ``L_2``
-:func:`chandler_period` (1.5)      :func:`wobble_period` of the rigid Earth
-:func:`steady_rotation_torque`     (no integration: section 1.4, 1.4.1)
-=================================  ===================================================
+======================================  ================================================
+closed form (source)                    measured from a :class:`~liebody.Trajectory` by
+======================================  ================================================
+:func:`precession_rate` (H&F)           :func:`wobble_period` (``2 pi / |Omega|``)
+:func:`cone_angles` (H&F)               angles of ``omega``, ``L`` and the symmetry axis
+:func:`space_precession_rate` (H&F)     :func:`measured_space_precession_rate`
+:func:`stability` (H&F)                 :func:`fit_growth_rate`, :func:`wobble_period`
+:func:`flip_period` (L&L §37)           :func:`zero_crossings` of ``L_2``
+:func:`chandler_period` (H&F)           :func:`wobble_period` of the rigid Earth
+:func:`steady_rotation_torque` (H&F)    (no integration)
+======================================  ================================================
+
+H&F topics used: the force-free symmetric top (body frame and inertial frame),
+stability of rotation about the principal axes, Euler's equations.
 
 Conventions: body-frame ``omega`` and ``L`` (principal axes) unless named ``_space``;
 rates in radians per unit of the trajectory's time; float64. Invalid input raises
@@ -102,14 +106,15 @@ def _has_samples(traj, n: int, what: str) -> None:
 
 
 # ----------------------------------------------------------------------------------------
-# force-free symmetric top (text 1.5, 1.5.1)
+# force-free symmetric top (H&F ch. 8: the force-free symmetric top)
 # ----------------------------------------------------------------------------------------
 
 
 def precession_rate(I: float, I3: float, omega3: float) -> float:
     """Body-frame precession rate ``Omega = omega3 (I3 - I) / I`` of a symmetric top.
 
-    Reference text, section 1.5 ("The Force-Free Symmetric Top"): with ``I1 = I2 = I``
+    Hand & Finch, *Analytical Mechanics*, ch. 8, the force-free symmetric top: with
+    ``I1 = I2 = I``
     Euler's equations give ``omega3 = const`` and
     ``omega1 = c cos(Omega t + phi)``, ``omega2 = c sin(Omega t + phi)``: ``omega``
     circles the symmetry axis in the body frame at the angular frequency ``Omega``.
@@ -137,7 +142,10 @@ def precession_rate(I: float, I3: float, omega3: float) -> float:
 
 
 class Cones(NamedTuple):
-    """Half-angles of the body and space cones of a free symmetric top (text 1.5.1).
+    """Half-angles of the body and space cones of a free symmetric top.
+
+    Hand & Finch, *Analytical Mechanics*, ch. 8, the force-free symmetric top in the
+    inertial frame (see :func:`cone_angles`).
 
     Attributes
     ----------
@@ -168,8 +176,9 @@ class Cones(NamedTuple):
 def cone_angles(I: float, I3: float, omega_perp: float, omega3: float) -> Cones:
     """Body and space cones of a force-free symmetric top.
 
-    Reference text, section 1.5.1 ("Motion Analyzed in the Inertial Frame"): ``L``,
-    ``omega`` and the symmetry axis ``z`` lie in one plane at fixed angles,
+    Hand & Finch, *Analytical Mechanics*, ch. 8, the force-free symmetric top seen from
+    the inertial frame: ``L``, ``omega`` and the symmetry axis ``z`` lie in one plane at
+    fixed angles,
     ``tan alpha = omega_n / omega3``, ``tan theta = I omega_n / (I3 omega3)``, so
     ``tan alpha = (I3 / I) tan theta``; ``omega`` sweeps the body cone (half-angle
     ``alpha``) about ``z`` and the space cone (half-angle ``|alpha - theta|``) about
@@ -207,7 +216,8 @@ def cone_angles(I: float, I3: float, omega_perp: float, omega3: float) -> Cones:
 def space_precession_rate(I: float, L_norm: float) -> float:
     """Rate ``|L| / I`` at which the ``omega``-axis plane precesses about the fixed ``L``.
 
-    Reference text, section 1.5.1: ``omega = (L / I) L_hat - Omega z_hat`` with
+    Hand & Finch, ch. 8, the force-free symmetric top in the inertial frame:
+    ``omega = (L / I) L_hat - Omega z_hat`` with
     ``Omega = omega3 (I3 - I) / I``. The symmetry axis moves as
     ``dz/dt = omega x z = (L / I) L_hat x z``, i.e. it (and with it the plane of
     ``omega``, ``L`` and ``z``) turns about ``L_hat`` at the rate ``|L| / I``,
@@ -314,11 +324,12 @@ def zero_crossings(t, y, *, direction: int = 0, interpolation: str = "cubic") ->
 def wobble_period(traj, component: int = 0) -> float:
     """Period of the body-frame wobble of ``omega`` (equivalently of ``L``), measured.
 
-    Reference text, section 1.5: the component ``omega1 = c cos(Omega t + phi)`` of a
-    free symmetric top oscillates with period ``2 pi / |Omega|``
-    (:func:`precession_rate`); for the rigid Earth this is the Chandler (Euler) wobble
-    (:func:`chandler_period`). Also measures the small-oscillation period about a
-    stable principal axis (text 1.5.2, :func:`stability`) and the period ``T_m`` of
+    Hand & Finch, ch. 8, the force-free symmetric top: the component
+    ``omega1 = c cos(Omega t + phi)`` of a free symmetric top oscillates with period
+    ``2 pi / |Omega|`` (:func:`precession_rate`); for the rigid Earth this is the
+    Chandler (Euler) wobble (:func:`chandler_period`). Also measures the
+    small-oscillation period about a stable principal axis (:func:`stability`) and the
+    period ``T_m`` of
     any periodic body-frame motion (:func:`flip_period`).
 
     The sign changes of ``traj.omega[:, component]`` are located by
@@ -367,7 +378,8 @@ def wobble_period(traj, component: int = 0) -> float:
 def measured_space_precession_rate(traj) -> float:
     """Rate at which ``omega_space`` turns about the fixed ``L_space``, measured.
 
-    Reference text, section 1.5.1 (closed form :func:`space_precession_rate`,
+    Hand & Finch, ch. 8, the force-free symmetric top in the inertial frame (closed form
+    :func:`space_precession_rate`,
     ``|L| / I`` for a symmetric top): ``omega_space`` is projected on the plane
     perpendicular to ``L_hat = mean(L_space) / |mean(L_space)|``; its azimuth in that
     plane (right-handed about ``L_hat``) is unwrapped and fitted by a straight line in
@@ -415,12 +427,12 @@ def measured_space_precession_rate(traj) -> float:
 def fit_growth_rate(traj, component: int | None = None, window=None) -> float:
     """Exponential growth rate of a perturbation, least-squares slope of ``log|...|``.
 
-    Reference text, section 1.5.2: about the intermediate axis the linearised Euler
-    equations give ``omega1, omega3 ~ exp(sqrt(r1 r3) omega2 t)``
-    (closed form :func:`stability`). This fits ``log|y| = a + lambda t`` with
-    ``y = traj.omega[:, component]``, or for ``component=None`` the transverse
-    amplitude ``sqrt(omega_b^2 + omega_c^2)`` about the axis ``a`` of the largest
-    initial ``|omega_a|`` (it grows without oscillating).
+    Hand & Finch, ch. 8, stability of rotation about the principal axes: about the
+    intermediate axis the linearised Euler equations give
+    ``omega1, omega3 ~ exp(sqrt(r1 r3) omega2 t)`` (closed form :func:`stability`).
+    This fits ``log|y| = a + lambda t`` with ``y = traj.omega[:, component]``, or for
+    ``component=None`` the transverse amplitude ``sqrt(omega_b^2 + omega_c^2)`` about
+    the axis ``a`` of the largest initial ``|omega_a|`` (it grows without oscillating).
 
     Choosing the window. The linear solution is ``y = A e^{lambda t} + B e^{-lambda t}``
     and the nonlinear terms are ``O(y^2 / omega^2)`` relative. The fitted slope is
@@ -507,12 +519,15 @@ def fit_growth_rate(traj, component: int | None = None, window=None) -> float:
 
 
 # ----------------------------------------------------------------------------------------
-# stability of the principal axes (text 1.5.2)
+# stability of the principal axes (H&F ch. 8)
 # ----------------------------------------------------------------------------------------
 
 
 class Stability(NamedTuple):
-    """Linear stability of steady rotation about a principal axis (text 1.5.2).
+    """Linear stability of steady rotation about a principal axis.
+
+    Hand & Finch, *Analytical Mechanics*, ch. 8, stability of rotation about the
+    principal axes; see :func:`stability`.
 
     Attributes
     ----------
@@ -541,18 +556,20 @@ def axis_role(moments, axis: int) -> str:
 def stability(moments, omega: float, axis: int) -> Stability:
     """Stability of steady rotation ``omega`` about the principal axis ``axis``.
 
-    Reference text, section 1.5.2 ("Stability of Axes"). With the moments sorted,
+    Hand & Finch, *Analytical Mechanics*, ch. 8, stability of rotation about the
+    principal axes (the asymmetric force-free top). With the moments sorted,
     ``I1 < I2 < I3``, and ``r1 = (I3 - I2)/I1``, ``r2 = (I3 - I1)/I2``,
     ``r3 = (I2 - I1)/I3`` (all > 0), linearising Euler's equations about the steady
     rotation gives
 
     * about the smallest-moment axis: ``omega2'' = -r2 r3 omega1^2 omega2``, stable,
-      frequency ``sqrt(r2 r3) |omega1|`` (as in the text);
+      frequency ``sqrt(r2 r3) |omega1|``;
     * about the largest-moment axis: ``omega1' = -r1 omega3 omega2``,
       ``omega2' = r2 omega3 omega1``, so ``omega1'' = -r1 r2 omega3^2 omega1``, stable,
-      frequency ``sqrt(r1 r2) |omega3|`` (the text's "likewise", derived the same way);
+      frequency ``sqrt(r1 r2) |omega3|`` (derived the same way);
     * about the intermediate axis: ``omega1'' = +r1 r3 omega2^2 omega1``, unstable,
-      growth rate ``sqrt(r1 r3) |omega2|`` (also literature section 10).
+      growth rate ``sqrt(r1 r3) |omega2|`` (the rate ``lambda`` of :func:`flip_period`
+      near the separatrix).
 
     ``moments`` may be in any order (e.g. a body's ``moments``); they are sorted
     internally and :func:`axis_role` tells which of the three ``axis`` is. In general
@@ -597,15 +614,15 @@ def stability(moments, omega: float, axis: int) -> Stability:
 
 
 # ----------------------------------------------------------------------------------------
-# Dzhanibekov flips (literature section 10)
+# Dzhanibekov flips (Landau & Lifshitz §37)
 # ----------------------------------------------------------------------------------------
 
 
 def flip_period(moments, L) -> float:
     """Period ``T_m = 4 K(k) / nu`` of the body-frame motion of ``L`` (asymmetric body).
 
-    Literature notes, section 10 (Landau & Lifshitz, Mechanics sec. 37), with the
-    moments sorted ``I1 < I2 < I3``, ``G^2 = |L|^2`` and ``E2 = 2T = sum L_i^2 / I_i``:
+    Landau & Lifshitz, *Mechanics*, 3rd ed. (1976), §37 (the asymmetrical top), with
+    the moments sorted ``I1 < I2 < I3``, ``G^2 = |L|^2`` and ``E2 = 2T = sum L_i^2 / I_i``:
 
     * ``G^2 > E2 I2`` (``L`` circulates about the largest axis):
       ``nu = sqrt((I3 - I2)(G^2 - E2 I1) / (I1 I2 I3))``,
@@ -684,25 +701,26 @@ def flip_period(moments, L) -> float:
 
 
 # ----------------------------------------------------------------------------------------
-# torque for steady rotation (text 1.4, 1.4.1)
+# torque for steady rotation (H&F ch. 8: Euler's equations)
 # ----------------------------------------------------------------------------------------
 
 
 def steady_rotation_torque(inertia, omega) -> np.ndarray:
     """Torque ``N = omega x (I omega)`` that keeps a body rotating at constant ``omega``.
 
-    Reference text, section 1.4: Euler's equations
+    Hand & Finch, *Analytical Mechanics*, ch. 8, Euler's equations
     ``I_i omega_i' + eps_ijk omega_j omega_k I_k = N_i`` with ``omega' = 0`` give
     ``N = omega x L``, ``L = I omega`` (body frame; in components
     ``N1 = -omega2 omega3 (I2 - I3)`` etc.). ``N = 0`` iff ``L`` is parallel to
     ``omega``, i.e. ``omega`` lies along a principal axis: only rotation about a
-    principal axis is torque-free (text's note after Euler's equations). Sign: ``N``
-    is the torque that must be *applied*; a free body instead has
+    principal axis is torque-free. Sign: ``N`` is the torque that must be *applied*; a
+    free body instead has
     ``dL/dt (body) = L x omega = -N``.
 
-    Section 1.4.1, the dumbbell (``I1 = I2 = m l^2 / 2``, ``I3 = 0``, axis ``x3``) with
-    ``omega = omega (sin th, 0, cos th)``: ``N = (0, omega^2 sin th cos th I1, 0)``,
-    exactly the text's result and sign (``N2 = omega3 L1 - omega1 L3``).
+    The rotating dumbbell (Hand & Finch's example for Euler's equations:
+    ``I1 = I2 = m l^2 / 2``, ``I3 = 0``, axis ``x3``) with
+    ``omega = omega (sin th, 0, cos th)``: ``N = (0, omega^2 sin th cos th I1, 0)``
+    (``N2 = omega3 L1 - omega1 L3``).
 
     Parameters
     ----------
@@ -740,24 +758,25 @@ def steady_rotation_torque(inertia, omega) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------
-# Chandler wobble (text 1.5, literature 8.5)
+# Chandler wobble (H&F ch. 8: the force-free symmetric top; IERS Conventions 2010)
 # ----------------------------------------------------------------------------------------
 
 
 def chandler_period(body=None) -> float:
     """Free (Euler) wobble period of a rigid body, in rotation periods (sidereal days).
 
-    Reference text, section 1.5: for a symmetric top spinning at ``omega3``,
-    ``Omega = omega3 (C - A) / A``, so the wobble period is ``A / (C - A)`` spin
-    periods; for the rigid Earth (:func:`liebody.bodies.earth`,
-    ``(C - A)/C = H = 0.0032737949``) that is ``(1 - H)/H = 304.456`` sidereal days
-    (= 303.6 solar days; literature notes section 8.5). The text quotes "~300 d".
+    Hand & Finch, *Analytical Mechanics*, ch. 8, the force-free symmetric top: for a
+    symmetric top spinning at ``omega3``, ``Omega = omega3 (C - A) / A``, so the wobble
+    period is ``A / (C - A)`` spin periods. For the rigid Earth
+    (:func:`liebody.bodies.earth`, dynamical flattening ``(C - A)/C = H = 0.0032737949``,
+    IERS Conventions 2010, IERS Technical Note 36) that is ``(1 - H)/H = 304.456``
+    sidereal days (= 303.6 solar days).
 
-    The *observed* Chandler wobble has a period of about 433 days (the text says "440
-    days"; literature section 8.5: 433–435 days): the Earth is not rigid. The elastic
-    mantle yields to the centrifugal bulge of the wobble itself (Love, Larmor), which
-    reduces the effective ``C - A``; the oceans and the fluid core lengthen it further
-    (Smith & Dahlen 1981). Only the rigid-body value is computed here.
+    The *observed* Chandler wobble has a period of about 433 days: the Earth is not
+    rigid. The elastic mantle yields to the centrifugal bulge of the wobble itself
+    (Love, Larmor), which reduces the effective ``C - A``; the oceans and the fluid core
+    lengthen it further (M. L. Smith & F. A. Dahlen, Geophys. J. R. Astron. Soc. 64
+    (1981) 223-281). Only the rigid-body value is computed here.
 
     Parameters
     ----------

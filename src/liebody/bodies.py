@@ -1,8 +1,10 @@
 """Ready-made bodies: the rigid Earth of the Chandler wobble, and test bodies.
 
-The Earth model is the force-free symmetric top of the reference text, section 1.5
-(``rigid-body-dynamics-notes.md``), with the constants of the literature notes,
-section 8.5 (``integrators-literature.md``).
+The Earth model is the force-free symmetric top of Hand & Finch, *Analytical
+Mechanics* (Cambridge University Press, 1998), ch. 8, with the dynamical flattening of
+the IERS Conventions (2010) (G. Petit & B. Luzum (eds.), IERS Technical Note 36). The
+test bodies are the standard ones of the geometric-integration papers listed in
+docs/references.md.
 """
 
 from __future__ import annotations
@@ -19,9 +21,9 @@ __all__ = ["EARTH_C", "EARTH_H", "SIDEREAL_DAY", "book", "earth", "earth_spin", 
 SIDEREAL_DAY = 86164.0905
 
 #: Dynamical ellipticity (dynamical flattening) ``H = (C - A) / C`` of the Earth: the IERS
-#: value, as given by the ``ahrs`` package's constants (``DYNAMIC_ELLIPTICITY``) and quoted
-#: in the literature notes, section 8.5 (IERS Conventions 2010, IERS Technical Note 36,
-#: numerical standards, give ``H = 3273795e-9``).
+#: value, as given by the ``ahrs`` package's constants (``DYNAMIC_ELLIPTICITY``); the
+#: numerical standards of the IERS Conventions (2010) (IERS Technical Note 36, ch. 1)
+#: give ``H = 3273795e-9``.
 EARTH_H = 0.0032737949
 
 #: Polar moment of inertia of the Earth, ``C ≈ 0.3307 M a^2 ≈ 8.034e37 kg m^2``
@@ -32,8 +34,9 @@ EARTH_C = 8.034e37
 def earth(C: float = 1.0) -> RigidBody:
     """The rigid Earth as a symmetric top: moments ``(A, A, C)``, ``A = C (1 - H)``.
 
-    Reference text, section 1.5 ("The Force-Free Symmetric Top", "i.e. Earth");
-    ``H = EARTH_H`` is the dynamical ellipticity ``(C - A)/C`` (literature section 8.5).
+    Hand & Finch, *Analytical Mechanics*, ch. 8, the force-free symmetric top, whose
+    example is the Earth; ``H = EARTH_H`` is the dynamical ellipticity ``(C - A)/C``
+    (IERS Conventions 2010, IERS Technical Note 36).
     The figure (symmetry) axis is body axis 3 (index 2). Spinning once per
     :data:`SIDEREAL_DAY` (:func:`earth_spin`), its free wobble has the period
     ``A / (C - A) = (1 - H)/H = 304.456`` sidereal days
@@ -61,7 +64,10 @@ def earth_spin() -> float:
 
 
 def hlw() -> RigidBody:
-    """The Hairer–Lubich–Wanner test body ``I = (2, 1, 2/3)`` (literature section 8.1).
+    """The Hairer–Lubich–Wanner test body ``I = (2, 1, 2/3)``.
+
+    The free-rigid-body test problem of E. Hairer, C. Lubich & G. Wanner, *Geometric
+    Numerical Integration*, 2nd ed. (Springer, 2006).
 
     Its moments violate the triangle inequality (``1 + 2/3 < 2``), so it is built with
     ``check_triangle=False``; the standard initial momentum is
@@ -75,8 +81,9 @@ def book(mass: float = 1.0, a: float = 0.24, b: float = 0.17, c: float = 0.03) -
 
     Moments ``M (b^2 + c^2)/12 < M (a^2 + c^2)/12 < M (a^2 + b^2)/12``
     (:func:`liebody.inertia.box`): spun about its middle axis ``y`` (index 1) it shows
-    the intermediate-axis instability of the reference text, section 1.5.2 (tennis
-    racket / Dzhanibekov effect); about ``x`` or ``z`` it is stable.
+    the instability of rotation about the intermediate axis (Hand & Finch, *Analytical
+    Mechanics*, ch. 8, stability of rotation about the principal axes; tennis racket /
+    Dzhanibekov effect); about ``x`` or ``z`` it is stable.
 
     Parameters
     ----------

@@ -1,9 +1,10 @@
 """The :class:`RigidBody`: principal moments, principal axes, ``T`` and ``L`` of a body.
 
-Implements sections 1.3 (principal axes and the principal axis transformation) and
-1.3.1 (``L`` in the principal axis system) of the reference text
-(``rigid-body-dynamics-notes.md``); the zero-moment check is motivated by the
-dumbbell of section 1.4.1. Plain NumPy, float64.
+Implements the principal axes of Hand & Finch, *Analytical Mechanics* (Cambridge
+University Press, 1998), ch. 8: the principal axis transformation that diagonalises the
+inertia tensor, and ``L`` and ``T`` in the principal axis system. The zero-moment check
+is motivated by the ideal dumbbell of the same chapter (Euler's equations), whose
+axial moment is zero. Plain NumPy, float64.
 """
 
 from __future__ import annotations
@@ -70,11 +71,12 @@ def _equalize(moments: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
 class RigidBody:
     """A rigid body described by its principal moments of inertia.
 
-    Section 1.3 of the reference text: a real symmetric inertia tensor is diagonalised
-    by a rotation, ``I = A diag(I1, I2, I3) A^T``, whose columns are the principal
-    axes. The body frame used by every other part of liebody is this principal frame:
-    ``omega`` and ``L`` are components along the principal axes (section 1.3.1:
-    ``L_k = I_k omega_k`` and ``T = 1/2 sum_k I_k omega_k^2``).
+    Hand & Finch, *Analytical Mechanics*, ch. 8, principal axes: a real symmetric
+    inertia tensor is diagonalised by a rotation, ``I = A diag(I1, I2, I3) A^T``, whose
+    columns are the principal axes. The body frame used by every other part of liebody
+    is this principal frame: ``omega`` and ``L`` are components along the principal axes
+    (``L_k = I_k omega_k`` and ``T = 1/2 sum_k I_k omega_k^2`` in the principal axis
+    system).
 
     Parameters
     ----------
@@ -99,8 +101,8 @@ class RigidBody:
     ValueError
         ``inertia`` has the wrong shape, is not finite, is a non-symmetric tensor
         (``max|I - I^T| > 1e-12 max|I|``), has a negative principal moment, has a zero
-        principal moment (``<= ZERO_RTOL * max``: an ideal rod or the dumbbell of
-        section 1.4.1 has no finite rotational dynamics about its axis), or violates
+        principal moment (``<= ZERO_RTOL * max``: an ideal rod or dumbbell, all mass on
+        one line, has no finite rotational dynamics about its axis), or violates
         the triangle inequality beyond ``TRIANGLE_RTOL * max`` (unless
         ``check_triangle=False``); ``mass`` is not finite and positive.
 
@@ -189,8 +191,8 @@ class RigidBody:
                 raise ValueError(
                     f"inertia has a zero principal moment ({what} {_AXIS_NAMES[k]} = "
                     f"{float(moments[k])!r}, below {ZERO_RTOL:.0e} x the largest): an ideal thin "
-                    "rod or dumbbell (all mass on one line, reference text section 1.4.1, "
-                    "I3 = 0) has no finite rotational dynamics about that axis "
+                    "rod or dumbbell (all mass on one line, I3 = 0) has no finite "
+                    "rotational dynamics about that axis "
                     "(omega = L / I is undefined). Give it a small thickness, e.g. "
                     "liebody.inertia.solid_cylinder instead of thin_rod."
                 )
@@ -218,8 +220,8 @@ class RigidBody:
         """Body made of point masses; see :func:`liebody.inertia.tensor`.
 
         The tensor is taken about ``origin`` (default: the centre of mass; another
-        point is a fixed point, section 1.1) and diagonalised; ``mass`` is the total
-        mass.
+        point is a fixed point: Hand & Finch, ch. 8, motion of a body with one point
+        fixed) and diagonalised; ``mass`` is the total mass.
         """
         I = tensor(masses, positions, origin)
         total = float(np.sum(np.asarray(masses, dtype=np.float64)))
@@ -270,11 +272,11 @@ class RigidBody:
         return self._free_axes
 
     # ----------------------------------------------------------------------------------
-    # dynamics helpers (section 1.3 / 1.3.1), vectorised over (..., 3)
+    # dynamics helpers (T and L in the principal axis system), vectorised over (..., 3)
     # ----------------------------------------------------------------------------------
 
     def kinetic_energy(self, omega) -> np.ndarray | float:
-        """Rotational kinetic energy ``T = 1/2 sum_k I_k omega_k^2`` (section 1.3).
+        """Rotational kinetic energy ``T = 1/2 sum_k I_k omega_k^2`` (principal axes).
 
         Parameters
         ----------
@@ -289,7 +291,7 @@ class RigidBody:
         return 0.5 * np.sum(self._moments * w * w, axis=-1)
 
     def angular_momentum(self, omega) -> np.ndarray:
-        """Body angular momentum ``L_k = I_k omega_k`` (section 1.3.1), shape (..., 3)."""
+        """Body angular momentum ``L_k = I_k omega_k`` (principal axes), shape (..., 3)."""
         w = as_float_array("omega", omega, last_dim=3)
         return self._moments * w
 

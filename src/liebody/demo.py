@@ -1,9 +1,11 @@
-"""``python -m liebody demo [--plot DIR]``: the reference text's phenomena, simulated.
+"""``python -m liebody demo [--plot DIR]``: classical rigid-body phenomena, simulated.
 
-Four scenes, each checked against the text's closed form: the rigid Earth's
-Chandler wobble (section 1.5), the instability of rotation about the intermediate
-axis (1.5.2), the Dzhanibekov flips that follow (literature section 10), and a
-Lagrange top released from rest (1.7). For each, a small table prints the
+Four scenes, each checked against its closed form: the rigid Earth's Chandler wobble
+(the force-free symmetric top), the instability of rotation about the intermediate
+axis (stability of rotation about the principal axes), the Dzhanibekov flips that
+follow (their period ``4 K(k)/nu``, Landau & Lifshitz, *Mechanics*, §37), and a
+Lagrange top released from rest (the heavy symmetric top); the other three topics are
+those of Hand & Finch, *Analytical Mechanics*, ch. 8. For each, a small table prints the
 prediction, the simulation, their relative difference, and the drift of the
 invariants. ``--plot DIR`` also writes PNG figures (needs matplotlib, the ``plot``
 extra).
@@ -50,7 +52,7 @@ def _invariants(traj) -> None:
 
 
 def chandler(plot_dir: Path | None) -> None:
-    """Reference text 1.5: the rigid Earth's free wobble, period A/(C - A) sidereal days."""
+    """Force-free symmetric top: the rigid Earth's free wobble, period A/(C - A) sidereal days."""
     import liebody
     from liebody import analysis, bodies
 
@@ -65,7 +67,7 @@ def chandler(plot_dir: Path | None) -> None:
                              t_end=round(t_end / (day / 4)) * day / 4, method="sr2",
                              save_every=4)
     measured = analysis.wobble_period(traj) / day
-    _title("1. Chandler wobble of the rigid Earth (text 1.5)")
+    _title("1. Chandler wobble of the rigid Earth (force-free symmetric top)")
     print(f"  Earth: (C - A)/C = {bodies.EARTH_H}, spin 1 sidereal day; method sr2, "
           f"dt = 6 h, {len(traj)} samples")
     _table([("wobble period [sidereal days]", predicted, measured)])
@@ -89,7 +91,7 @@ def chandler(plot_dir: Path | None) -> None:
 
 
 def intermediate_axis(plot_dir: Path | None) -> None:
-    """Reference text 1.5.2: about the intermediate axis omega grows like exp(sqrt(r1 r3) w2 t)."""
+    """Stability of the principal axes: about the middle one omega grows ~ exp(sqrt(r1 r3) w2 t)."""
     import liebody
     from liebody import analysis
 
@@ -106,7 +108,7 @@ def intermediate_axis(plot_dir: Path | None) -> None:
     fitted = analysis.fit_growth_rate(traj, component=0, window=window)
     stable1 = analysis.stability(moments, 1.0, axis=0)
     stable3 = analysis.stability(moments, 1.0, axis=2)
-    _title("2. Rotation about the intermediate axis is unstable (text 1.5.2)")
+    _title("2. Rotation about the intermediate axis is unstable (linear stability)")
     print(f"  I = {moments.tolist()}, omega = (1e-8, 1, 1e-8); exact flow at the output times")
     _table([("growth rate sqrt(r1 r3) omega2", pred.rate, fitted)])
     print(f"  axes 1 and 3 are stable, oscillating at sqrt(r2 r3) w1 = {stable1.rate:.4f} and "
@@ -132,7 +134,7 @@ def intermediate_axis(plot_dir: Path | None) -> None:
 
 
 def flips(plot_dir: Path | None) -> None:
-    """Literature section 10: the flips of the T-handle repeat every 2 K(k)/nu."""
+    """Landau & Lifshitz §37: the flips of the T-handle repeat every 2 K(k)/nu."""
     import liebody
     from liebody import analysis
 
@@ -146,7 +148,7 @@ def flips(plot_dir: Path | None) -> None:
     idx = np.flatnonzero(np.sign(L2[:-1]) != np.sign(L2[1:]))
     crossings = traj.t[idx] - L2[idx] * (traj.t[idx + 1] - traj.t[idx]) / (L2[idx + 1] - L2[idx])
     spacing = np.mean(np.diff(crossings))
-    _title("3. Dzhanibekov flips (literature section 10, elliptic integral K(k))")
+    _title("3. Dzhanibekov flips (Landau & Lifshitz §37, elliptic integral K(k))")
     print(f"  I = {moments.tolist()}, L0 = {L0.tolist()}; splitting8, dt = 0.01, "
           f"{len(crossings)} flips")
     _table([("time between flips 2K(k)/nu", period / 2, spacing)])
@@ -167,7 +169,7 @@ def flips(plot_dir: Path | None) -> None:
 
 
 def lagrange_top(plot_dir: Path | None) -> None:
-    """Reference text 1.7: a heavy symmetric top released from rest nutates with cusps."""
+    """Heavy symmetric top: released from rest, it nutates with cusps."""
     import liebody
     from liebody import euler
     from liebody import lagrange_top as lt
@@ -190,7 +192,7 @@ def lagrange_top(plot_dir: Path | None) -> None:
     a, b, c = theta[i - 1], theta[i], theta[i + 1]
     t_min = traj.t[i] + 0.5 * (traj.t[1] - traj.t[0]) * (a - c) / (a - 2 * b + c)
     measured_period = float(np.mean(np.diff(np.r_[0.0, t_min])))
-    _title("4. Lagrange top released from rest (text 1.7)")
+    _title("4. Lagrange top released from rest (heavy symmetric top)")
     print(f"  I1 = {I1}, I3 = {I3}, M g l = {mgl}, theta(0) = {theta0}, spin {spin}; "
           f"splitting2 (exact symmetric free flow), dt = 1e-3")
     _table([("upper turning point theta1", th1, float(theta.min())),
@@ -252,7 +254,8 @@ def run(plot_dir: str | None = None) -> int:
             return 2
         out = Path(plot_dir)
         out.mkdir(parents=True, exist_ok=True)
-    print("liebody demo: the reference text's rigid-body phenomena, simulated and checked")
+    print("liebody demo: classical rigid-body phenomena, simulated and checked against "
+          "their closed forms")
     chandler(out)
     intermediate_axis(out)
     flips(out)

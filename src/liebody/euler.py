@@ -1,10 +1,12 @@
-"""Euler angles in the reference text's z-x-z convention (rigid-body notes, section 1.6).
+"""Euler angles in the z-x-z convention (Hand & Finch, *Analytical Mechanics*, ch. 8).
 
-The orientation is given by three rotations ``(phi, theta, psi)``; the matrix
+The orientation is given by three rotations ``(phi, theta, psi)`` (the definition of
+the Euler angles in Hand & Finch, *Analytical Mechanics*, Cambridge University Press,
+1998, ch. 8); the matrix
 
 ``V = V1(phi) V2(theta) V3(psi) = Rz(phi) Rx(theta) Rz(psi)``
 
-maps body to space coordinates, ``r_space = V r_body`` (section 1.6.1). It is the
+maps body to space coordinates, ``r_space = V r_body``. It is the
 same matrix as scipy's ``Rotation.from_euler('ZXZ', [phi, theta, psi]).as_matrix()``
 (intrinsic z-x'-z'') and as :func:`liebody.quaternion.to_matrix` of
 :func:`to_quaternion`, ``q = qz(phi) qx(theta) qz(psi)`` (scalar first ``(w, x, y, z)``).
@@ -12,7 +14,7 @@ same matrix as scipy's ``Rotation.from_euler('ZXZ', [phi, theta, psi]).as_matrix
 Array conventions
 -----------------
 * :func:`matrix` takes the three angles as separate, broadcastable arrays
-  ``matrix(phi, theta, psi)`` (the form used in the text and the issue).
+  ``matrix(phi, theta, psi)`` (the form in which the matrix is usually written).
 * Every other function takes ``angles`` of shape ``(..., 3)`` whose last axis is
   ``(phi, theta, psi)``; rates are ``(..., 3)`` arrays ``(phidot, thetadot, psidot)``
   and angular velocities ``(..., 3)`` vectors. Leading axes broadcast like numpy.
@@ -86,7 +88,7 @@ def _angles(name: str, value: ArrayLike) -> Array:
 
 
 def _angles_or_triple(angles, theta, psi) -> Array:
-    """``angles (..., 3)``, or the text's three separate arguments ``(phi, theta, psi)``."""
+    """``angles (..., 3)``, or three separate arguments ``(phi, theta, psi)``."""
     if theta is None and psi is None:
         return _angles("angles", angles)
     if theta is None or psi is None:
@@ -169,10 +171,10 @@ def _angles_from_unit_q(q: np.ndarray) -> tuple[Array, Mask]:
 
 
 def matrix(phi: ArrayLike, theta: ArrayLike, psi: ArrayLike) -> Array:
-    """Rotation matrix ``V = V1(phi) V2(theta) V3(psi)`` (space <- body), section 1.6.1.
+    """Rotation matrix ``V = V1(phi) V2(theta) V3(psi)`` (space <- body).
 
-    Written out term by term as in the reference text, so that
-    ``r_space = V r_body``. Identical to scipy's
+    Written out term by term as in the definition of the Euler angles (Hand & Finch,
+    ch. 8), so that ``r_space = V r_body``. Identical to scipy's
     ``Rotation.from_euler('ZXZ', [phi, theta, psi]).as_matrix()``.
 
     Parameters
@@ -214,8 +216,9 @@ def matrix(phi: ArrayLike, theta: ArrayLike, psi: ArrayLike) -> Array:
 
 
 def to_quaternion(angles: ArrayLike) -> Array:
-    """Unit quaternion of the Euler angles, ``q = qz(phi) qx(theta) qz(psi)`` (section 1.6.1).
+    """Unit quaternion of the Euler angles, ``q = qz(phi) qx(theta) qz(psi)``.
 
+    The definition of the Euler angles (Hand & Finch, ch. 8) as a quaternion:
     ``to_matrix(to_quaternion(angles)) == matrix(phi, theta, psi)``. With
     ``sigma = (phi + psi)/2`` and ``delta = (phi - psi)/2``::
 
@@ -239,9 +242,10 @@ def to_quaternion(angles: ArrayLike) -> Array:
 
 
 def from_quaternion(q: ArrayLike, *, return_mask: bool = False) -> Array | tuple[Array, Mask]:
-    """Euler angles of unit quaternions (inverse of :func:`to_quaternion`), section 1.6.1.
+    """Euler angles of unit quaternions (inverse of :func:`to_quaternion`).
 
-    Computed without ``acos``/``asin``: ``theta = 2 atan2(hypot(x, y), hypot(w, z))``,
+    The definition of the Euler angles (Hand & Finch, ch. 8) inverted, computed without
+    ``acos``/``asin``: ``theta = 2 atan2(hypot(x, y), hypot(w, z))``,
     ``phi = arg((w + i z)(x + i y))``, ``psi = arg((w + i z)(x - i y))``, which are
     accurate to round-off for every rotation, including next to gimbal lock, and give
     bit-identical angles for ``q`` and ``-q``.
@@ -275,11 +279,13 @@ def from_quaternion(q: ArrayLike, *, return_mask: bool = False) -> Array | tuple
 def from_matrix(
     V: ArrayLike, *, tol: float = 1e-9, return_mask: bool = False
 ) -> Array | tuple[Array, Mask]:
-    """Euler angles of rotation matrices ``V`` (space <- body), section 1.6.1.
+    """Euler angles of rotation matrices ``V`` (space <- body).
 
+    The definition of the Euler angles (Hand & Finch, ch. 8) inverted, as
     ``from_quaternion(quaternion.from_matrix(V))``: Shepperd's stable conversion to a
-    quaternion followed by the well-conditioned extraction of :func:`from_quaternion`
-    (same ranges and gimbal-lock convention).
+    quaternion (S. W. Shepperd, J. Guidance and Control 1 (1978) 223-224) followed by
+    the well-conditioned extraction of :func:`from_quaternion` (same ranges and
+    gimbal-lock convention).
 
     Parameters
     ----------
@@ -317,10 +323,11 @@ def from_matrix(
 
 
 def gimbal_lock(angles: ArrayLike, *, tol: float = GIMBAL_TOL) -> Mask:
-    """Boolean mask of samples at gimbal lock, ``|sin theta| <= tol`` (section 1.6.2).
+    """Boolean mask of samples at gimbal lock, ``|sin theta| <= tol``.
 
     There ``phi`` and ``psi`` are not separately defined, and :func:`rates` cannot
-    recover ``phidot``, ``psidot``.
+    recover ``phidot``, ``psidot`` from the angular velocity (Hand & Finch, ch. 8, the
+    angular velocity in Euler angles).
 
     Parameters
     ----------
@@ -340,9 +347,10 @@ def gimbal_lock(angles: ArrayLike, *, tol: float = GIMBAL_TOL) -> Mask:
 
 def rotation_angle(angles: ArrayLike, theta: ArrayLike | None = None,
                    psi: ArrayLike | None = None) -> Array:
-    """Rotation angle ``Phi`` of ``V`` about its invariant axis, in ``[0, pi]`` (section 1.6.1).
+    """Rotation angle ``Phi`` of ``V`` about its invariant axis, in ``[0, pi]``.
 
-    The text's trace relation ``cos(Phi/2) = cos((phi + psi)/2) cos(theta/2)``
+    The trace relation ``cos(Phi/2) = cos((phi + psi)/2) cos(theta/2)`` (Hand & Finch,
+    ch. 8, Euler angles)
     (i.e. ``1 + 2 cos Phi = trace V``) defines ``Phi`` in ``[0, 2 pi]``; a rotation
     by ``Phi > pi`` is the rotation by ``2 pi - Phi`` about the opposite axis, and
     this function returns the latter, ``Phi in [0, pi]``, consistently with
@@ -353,7 +361,7 @@ def rotation_angle(angles: ArrayLike, theta: ArrayLike | None = None,
     Parameters
     ----------
     angles
-        ``(..., 3)`` array of ``(phi, theta, psi)``; or, as in the text,
+        ``(..., 3)`` array of ``(phi, theta, psi)``; or
         ``rotation_angle(phi, theta, psi)`` with three broadcastable arrays.
 
     Returns
@@ -366,7 +374,7 @@ def rotation_angle(angles: ArrayLike, theta: ArrayLike | None = None,
 
 def rotation_axis(angles: ArrayLike, theta: ArrayLike | None = None,
                   psi: ArrayLike | None = None) -> Array:
-    """Unit rotation axis of ``V``: the eigenvector with eigenvalue 1 (section 1.6.1).
+    """Unit rotation axis of ``V``: the eigenvector with eigenvalue 1 (Hand & Finch, ch. 8).
 
     Oriented so that ``V`` is a right-handed rotation by :func:`rotation_angle`
     ``Phi in [0, pi]`` about it. At ``Phi = pi`` both orientations describe the same
@@ -393,7 +401,7 @@ def rotation_axis(angles: ArrayLike, theta: ArrayLike | None = None,
 
 
 def omega_body(angles: ArrayLike, rates: ArrayLike) -> Array:
-    """Angular velocity in body coordinates from Euler-angle rates (section 1.6.2).
+    """Angular velocity in body coordinates from Euler-angle rates (Hand & Finch, ch. 8).
 
     ``hat(omega_body) = V^T dV/dt``::
 
@@ -425,7 +433,7 @@ def omega_body(angles: ArrayLike, rates: ArrayLike) -> Array:
 
 
 def omega_space(angles: ArrayLike, rates: ArrayLike) -> Array:
-    """Angular velocity in space coordinates from Euler-angle rates (section 1.6.2).
+    """Angular velocity in space coordinates from Euler-angle rates (Hand & Finch, ch. 8).
 
     ``hat(omega_space) = dV/dt V^T`` and ``omega_space = V omega_body``::
 
@@ -463,9 +471,9 @@ def rates(
     tol: float = GIMBAL_TOL,
     singular: Literal["raise", "nan"] = "raise",
 ) -> Array:
-    """Euler-angle rates from the body angular velocity (inverse of section 1.6.2).
+    """Euler-angle rates from the body angular velocity (inverse of :func:`omega_body`).
 
-    Solving the text's body-frame formula for the rates::
+    Solving the body-frame formula (Hand & Finch, ch. 8, Euler angles) for the rates::
 
         phidot   = (omega_1 sin(psi) + omega_2 cos(psi)) / sin(theta)
         thetadot = omega_1 cos(psi) - omega_2 sin(psi)
@@ -536,8 +544,8 @@ def unwrap(angles: ArrayLike, axis: int = 0) -> Array:
     introduce along a long trajectory; ``theta`` (in ``[0, pi]``, no jumps) is returned
     unchanged. Jumps of exactly ``pi`` in ``phi`` and ``psi`` that occur when a
     trajectory passes through gimbal lock (``theta`` touching ``0`` or ``pi``) are a
-    property of the chart, not wrapping, and are not removed. (Not in the reference
-    text; a utility for trajectories expressed in section 1.6's angles.)
+    property of the chart, not wrapping, and are not removed. (A utility for
+    trajectories expressed in Euler angles, not part of the theory.)
 
     Parameters
     ----------

@@ -1,8 +1,9 @@
 """Inertia tensors: point masses, the parallel axis theorem, standard solids, composites.
 
-Everything here is plain NumPy, float64. Section numbers refer to the reference text
-(``rigid-body-dynamics-notes.md``): the definition of the *moment of inertia tensor*
-at its start, 1.2 (the parallel axis theorem) and 1.2.1 (the thin disk example).
+Everything here is plain NumPy, float64. The theory is that of Hand & Finch,
+*Analytical Mechanics* (Cambridge University Press, 1998), ch. 8: the definition of
+the *moment of inertia tensor*, the parallel axis theorem (with its thin-disk example)
+and the transformation law of the tensor under rotations (principal axes).
 
 Conventions
 -----------
@@ -121,8 +122,8 @@ def _as_rotation(name: str, value) -> np.ndarray:
 def tensor(masses, positions, origin=None) -> np.ndarray:
     """Inertia tensor of point masses, ``I_ij = sum_a m_a (r_a^2 delta_ij - r_a,i r_a,j)``.
 
-    Implements the definition of the *moment of inertia tensor* at the start of the
-    reference text (the discrete sum).
+    Implements the definition of the *moment of inertia tensor* (Hand & Finch, ch. 8),
+    as the discrete sum.
 
     Parameters
     ----------
@@ -167,7 +168,7 @@ def tensor(masses, positions, origin=None) -> np.ndarray:
 def parallel_axis(I_cm, mass, a) -> np.ndarray:
     """Move an inertia tensor from the centre of mass to another origin.
 
-    Implements the parallel axis theorem of section 1.2 of the reference text,
+    Implements the parallel axis theorem (Hand & Finch, ch. 8),
     ``I_ij = I_ij^CM + M (a^2 delta_ij - a_i a_j)``.
 
     Parameters
@@ -189,7 +190,7 @@ def parallel_axis(I_cm, mass, a) -> np.ndarray:
 
     Examples
     --------
-    The thin disk of section 1.2.1 (``M = 2``, ``R = 3``): ``I_zz`` is ``M R^2 / 2``
+    The thin-disk example of the theorem (``M = 2``, ``R = 3``): ``I_zz`` is ``M R^2 / 2``
     about the centre and ``3 M R^2 / 2`` about a point of the rim.
 
     >>> I = moments_to_tensor(thin_disk(2.0, 3.0))
@@ -207,7 +208,7 @@ def parallel_axis(I_cm, mass, a) -> np.ndarray:
 
 
 def rotate_tensor(I, orientation) -> np.ndarray:
-    """Express a tensor in a rotated frame: ``R I R^T`` (the law of section 1.3).
+    """Express a tensor in a rotated frame: ``R I R^T`` (Hand & Finch, ch. 8, principal axes).
 
     Parameters
     ----------
@@ -261,9 +262,10 @@ def moments_to_tensor(moments, orientation=None) -> np.ndarray:
 def thin_disk(mass: float, radius: float) -> np.ndarray:
     """Uniform thin disk in the ``xy`` plane: ``(M R^2/4, M R^2/4, M R^2/2)``.
 
-    Section 1.2.1 of the reference text computes ``I_zz = M R^2 / 2``; the in-plane
-    moments follow from the perpendicular axis rule ``I_xx + I_yy = I_zz`` of a
-    planar body (so the disk sits exactly on the triangle inequality).
+    Hand & Finch's thin-disk example (ch. 8, parallel axis theorem) computes
+    ``I_zz = M R^2 / 2``; the in-plane moments follow from the perpendicular axis rule
+    ``I_xx + I_yy = I_zz`` of a planar body (so the disk sits exactly on the triangle
+    inequality).
     """
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
@@ -284,7 +286,7 @@ def thin_rod(mass: float, length: float) -> np.ndarray:
 
     The axial moment is exactly zero (all mass on the axis), so this is useful only
     as a :class:`Part` of a :func:`composite`; :class:`liebody.RigidBody` rejects it
-    on its own (section 1.4.1's dumbbell has the same problem). Use
+    on its own (the ideal dumbbell, all mass on one line, has the same problem). Use
     :func:`solid_cylinder` for a rod of finite thickness.
     """
     M = as_positive_float("mass", mass)
@@ -340,7 +342,8 @@ def solid_cone(mass: float, radius: float, height: float) -> np.ndarray:
     ``z = +3h/4``. The moments are
 
     * transverse ``I1 = I2 = 3/80 M (4 R^2 + h^2)``
-      (= ``3/5 M (R^2/4 + h^2)`` about the apex minus ``M (3h/4)^2``, section 1.2);
+      (= ``3/5 M (R^2/4 + h^2)`` about the apex minus ``M (3h/4)^2``, parallel axis
+      theorem);
     * axial ``I3 = 3/10 M R^2``.
     """
     M = as_positive_float("mass", mass)
@@ -427,9 +430,9 @@ def _as_part(index: int, part) -> Part:
 def composite(parts: Iterable) -> MassProperties:
     """Mass properties of a body made of rigidly joined parts.
 
-    Each part's central tensor is rotated into the composite frame (``R I R^T``,
-    section 1.3) and moved to the combined centre of mass with the parallel axis
-    theorem (section 1.2), then the tensors are summed.
+    Each part's central tensor is rotated into the composite frame (``R I R^T``, the
+    transformation law of Hand & Finch, ch. 8, principal axes) and moved to the combined
+    centre of mass with the parallel axis theorem, then the tensors are summed.
 
     Parameters
     ----------

@@ -1,12 +1,13 @@
-"""The heavy symmetric (Lagrange) top: reference text, section 1.7.
+"""The heavy symmetric (Lagrange) top (Hand & Finch, *Analytical Mechanics*, ch. 8).
 
 A symmetric body (``I1 = I2``, moments taken **about the fixed point**) turns about a
 fixed point at the origin in uniform gravity ``-g e_z``; its centre of mass lies on the
 symmetry axis, body axis 3, at the distance ``l`` from the fixed point
 (``cm = (0, 0, l)`` in the body frame), and ``M g l > 0``. With the z-x-z Euler angles
-``(phi, theta, psi)`` of section 1.6 (``V = Rz(phi) Rx(theta) Rz(psi)`` body -> space),
-``theta`` is the tilt of the symmetry axis from the vertical and the Lagrangian is
-(section 1.7)::
+``(phi, theta, psi)`` of :mod:`liebody.euler` (``V = Rz(phi) Rx(theta) Rz(psi)`` body
+-> space), ``theta`` is the tilt of the symmetry axis from the vertical and the
+Lagrangian is (Hand & Finch, *Analytical Mechanics*, Cambridge University Press, 1998,
+ch. 8, the heavy symmetric top; "H&F ch. 8" below)::
 
     L = 1/2 I1 (phidot^2 sin^2 theta + thetadot^2) + 1/2 I3 (psidot + phidot cos theta)^2
         - M g l cos theta
@@ -72,6 +73,10 @@ DOUBLE_ROOT_RTOL: float = 1e-12
 
 _EPS = float(np.finfo(np.float64).eps)
 
+#: The space vertical ``e_z`` (gravity acts along ``-e_z``).
+_E_Z = np.array([0.0, 0.0, 1.0])
+_E_Z.flags.writeable = False
+
 Branch = Literal["slow", "fast"]
 MotionKind = Literal["steady", "monotone", "loops", "cusps", "planar"]
 
@@ -102,7 +107,7 @@ def _mgl(value) -> float:
     if not (math.isfinite(v) and v > 0.0):
         raise ValueError(
             f"mgl = M g l must be finite and > 0 (centre of mass on the +body-axis-3 side "
-            f"of the fixed point, l > 0, gravity -g e_z; section 1.7), got {v}. For a centre "
+            f"of the fixed point, l > 0, gravity -g e_z), got {v}. For a centre "
             f"of mass at l < 0 reverse body axis 3 (rotate the body frame by pi about axis 1)."
         )
     return v
@@ -115,7 +120,7 @@ def _theta_open(name: str, value) -> float:
         raise ValueError(
             f"{name} must lie in the open interval (0, pi), got {th!r}: at theta = 0 or pi "
             f"the symmetry axis is vertical (a sleeping top) and the precession rate "
-            f"phidot = beta / (I1 sin^2 theta) of section 1.7 is undefined"
+            f"phidot = beta / (I1 sin^2 theta) of steady precession is undefined"
         )
     return th
 
@@ -162,7 +167,7 @@ def _state_pair(q: ArrayLike, L: ArrayLike) -> tuple[Array, Array]:
 
 
 class ConservedQuantities(NamedTuple):
-    """The constants of motion of the Lagrange top (section 1.7).
+    """The constants of motion of the Lagrange top (Hand & Finch, ch. 8, the heavy top).
 
     Each field is a float for a single state or an array of the batch shape.
 
@@ -187,7 +192,7 @@ class ConservedQuantities(NamedTuple):
 
 
 class TurningPoints(NamedTuple):
-    """Turning points of the tilt, section 1.7 (see :meth:`TopMotion.turning_points`).
+    """Turning points of the tilt, Hand & Finch ch. 8 (see :meth:`TopMotion.turning_points`).
 
     Attributes
     ----------
@@ -213,7 +218,7 @@ class TurningPoints(NamedTuple):
 
 @dataclass(frozen=True)
 class SteadyPrecession:
-    """Steady precession at the tilt ``theta0`` with spin ``omega3`` (section 1.7).
+    """Steady precession at the tilt ``theta0`` with spin ``omega3`` (heavy symmetric top).
 
     Attributes
     ----------
@@ -221,8 +226,9 @@ class SteadyPrecession:
         The tilt and the spin ``omega_3 = p_psi / I3`` asked for.
     phidot_fast, phidot_slow
         The two exact precession rates ``phidot0 = beta / (I1 sin^2 theta0)``:
-        ``|phidot_fast| >= |phidot_slow|``. ``fast`` is the text's ``+`` root of the
-        quadratic in ``beta`` and ``slow`` its ``-`` root.
+        ``|phidot_fast| >= |phidot_slow|``. ``fast`` is the ``+`` root of the quadratic
+        in ``beta`` (Hand & Finch, ch. 8, the heavy symmetric top) and ``slow`` its ``-``
+        root.
     beta_fast, beta_slow
         The two roots ``beta = p_phi - p_psi cos theta0`` of
         ``cos(theta0) beta^2 - p_psi sin^2(theta0) beta + M g l I1 sin^4(theta0) = 0``.
@@ -247,7 +253,7 @@ class SteadyPrecession:
 
 @dataclass(frozen=True)
 class LagrangeTop:
-    """A heavy symmetric (Lagrange) top: reference text, section 1.7.
+    """A heavy symmetric (Lagrange) top (Hand & Finch, *Analytical Mechanics*, ch. 8).
 
     Parameters
     ----------
@@ -292,7 +298,7 @@ class LagrangeTop:
     def from_mass(
         cls, I1: float, I3: float, *, mass: float, l: float, g: float = STANDARD_GRAVITY
     ) -> LagrangeTop:
-        """Top with ``mgl = mass * g * l`` (section 1.7).
+        """Top with ``mgl = mass * g * l`` (Hand & Finch, ch. 8, the heavy symmetric top).
 
         Parameters
         ----------
@@ -331,7 +337,8 @@ class LagrangeTop:
     ) -> LagrangeTop:
         """Top from a :class:`~liebody.RigidBody` whose moments are about the fixed point.
 
-        Section 1.7 needs ``I1 = I2`` and the symmetry axis along body axis 3 (index 2),
+        The heavy symmetric top needs ``I1 = I2`` and the symmetry axis along body axis 3
+        (index 2),
         the axis that carries the centre of mass. Give either ``mgl`` or the centre of
         mass (``l``, or the body-frame vector ``cm``, together with ``mass`` -- default
         ``body.mass`` -- and ``g``).
@@ -375,7 +382,7 @@ class LagrangeTop:
             order = [(sym + 1) % 3, (sym + 2) % 3, sym]
             raise ValueError(
                 f"body must have its symmetry axis along body axis 3 (index 2) for the "
-                f"Lagrange top of section 1.7, got symmetry_axis = {sym} (moments "
+                f"Lagrange (heavy symmetric) top, got symmetry_axis = {sym} (moments "
                 f"{[float(x) for x in I]}). Relabel the axes cyclically, e.g. "
                 f"RigidBody(body.moments[{order}]), so that I1 = I2 and the centre of mass "
                 f"lies on axis 3."
@@ -383,7 +390,7 @@ class LagrangeTop:
         scale = float(np.max(I))
         if abs(float(I[0] - I[1])) > tol * scale:
             raise ValueError(
-                f"body must be symmetric with I1 = I2 (section 1.7): moments "
+                f"body must be symmetric with I1 = I2 (a Lagrange top): moments "
                 f"{[float(x) for x in I]} differ by |I1 - I2| = {abs(float(I[0] - I[1])):.3e} "
                 f"> rtol * max(moments) = {tol * scale:.3e}; an asymmetric heavy top is not "
                 f"a Lagrange top (use liebody.HeavyTop to integrate it)"
@@ -402,7 +409,7 @@ class LagrangeTop:
                 if off > tol * float(np.linalg.norm(c)):
                     raise ValueError(
                         f"cm must lie on the symmetry axis (body axis 3), cm = (0, 0, l) "
-                        f"(section 1.7): got cm = {c.tolist()}, at the distance {off:.3e} "
+                        f"(a Lagrange top): got cm = {c.tolist()}, at the distance {off:.3e} "
                         f"from the axis (> rtol * |cm|); a heavy top with an off-axis "
                         f"centre of mass is not a Lagrange top"
                     )
@@ -421,7 +428,7 @@ class LagrangeTop:
 
     @classmethod
     def from_heavy_top(cls, scene, *, rtol: float = DEGENERACY_RTOL) -> LagrangeTop:
-        """Top from a :class:`liebody.HeavyTop` scene (body, mass, cm, g), section 1.7.
+        """Top from a :class:`liebody.HeavyTop` scene (body, mass, cm, g), Hand & Finch ch. 8.
 
         Raises
         ------
@@ -441,7 +448,7 @@ class LagrangeTop:
     # ----------------------------------------------------------------------------------
 
     def lagrangian(self, angles: ArrayLike, rates: ArrayLike) -> float | Array:
-        """The Lagrangian of section 1.7, vectorised.
+        """The Lagrangian of the heavy symmetric top (Hand & Finch, ch. 8), vectorised.
 
         ``L = 1/2 I1 (phidot^2 sin^2 th + thetadot^2) + 1/2 I3 (psidot + phidot cos th)^2
         - M g l cos th``.
@@ -449,7 +456,7 @@ class LagrangeTop:
         Parameters
         ----------
         angles
-            ``(..., 3)`` z-x-z Euler angles ``(phi, theta, psi)`` (section 1.6).
+            ``(..., 3)`` z-x-z Euler angles ``(phi, theta, psi)`` (:mod:`liebody.euler`).
         rates
             ``(..., 3)`` rates ``(phidot, thetadot, psidot)``, broadcast against ``angles``.
 
@@ -462,7 +469,7 @@ class LagrangeTop:
         return _scalar_out(t - v)
 
     def energy(self, angles: ArrayLike, rates: ArrayLike) -> float | Array:
-        """Total energy ``E = T + M g l cos(theta)`` (section 1.7), vectorised.
+        """Total energy ``E = T + M g l cos(theta)`` (heavy symmetric top), vectorised.
 
         Parameters and returns as :meth:`lagrangian`.
         """
@@ -479,7 +486,7 @@ class LagrangeTop:
         return t, self.mgl * c
 
     def conserved(self, angles: ArrayLike, rates: ArrayLike) -> ConservedQuantities:
-        """``p_phi``, ``p_psi``, ``E`` and ``E'`` from Euler angles and rates (section 1.7).
+        """``p_phi``, ``p_psi``, ``E`` and ``E'`` from Euler angles and rates (H&F ch. 8).
 
         ``p_phi = (I1 sin^2 th + I3 cos^2 th) phidot + I3 psidot cos th``,
         ``p_psi = I3 (psidot + phidot cos th)``, ``E = T + M g l cos th`` and
@@ -489,7 +496,7 @@ class LagrangeTop:
         Parameters
         ----------
         angles
-            ``(..., 3)`` Euler angles ``(phi, theta, psi)``, z-x-z (section 1.6). Valid at
+            ``(..., 3)`` Euler angles ``(phi, theta, psi)``, z-x-z (:mod:`liebody.euler`). Valid at
             ``theta = 0`` too (``p_phi = p_psi = I3 (phidot + psidot)`` there).
         rates
             ``(..., 3)`` ``(phidot, thetadot, psidot)``, broadcast against ``angles``.
@@ -510,13 +517,15 @@ class LagrangeTop:
         return ConservedQuantities(*(_scalar_out(x) for x in (p_phi, p_psi, energy, e_prime)))
 
     def conserved_from_state(self, q: ArrayLike, L: ArrayLike) -> ConservedQuantities:
-        """``p_phi``, ``p_psi``, ``E`` and ``E'`` from a state ``(q, L)`` (section 1.7).
+        """``p_phi``, ``p_psi``, ``E`` and ``E'`` from a state ``(q, L)`` (Hand & Finch, ch. 8).
 
         With ``R = R(q)`` (body -> space) and the body angular momentum ``L``:
         ``p_psi = L_3``, ``p_phi = (R L)_z = L_space . e_z``,
         ``cos(theta) = R[2, 2]``, ``E = (L_1^2 + L_2^2) / (2 I1) + L_3^2 / (2 I3)
         + M g l cos(theta)`` and ``E' = (L_1^2 + L_2^2) / (2 I1) + M g l cos(theta)``.
-        The third row of ``R`` is computed directly from ``q`` (no numba kernels).
+        The third row of ``R`` is the space vertical seen from the body,
+        ``gamma = R^T e_z`` (:func:`liebody.quaternion.rotate_inverse`), so
+        ``p_phi = gamma . L`` and ``cos(theta) = gamma_3``.
 
         Parameters
         ----------
@@ -529,19 +538,18 @@ class LagrangeTop:
         -------
         ConservedQuantities
         """
+        from liebody import quaternion  # loads numba: only when a state is given
+
         qq, LL = _state_pair(q, L)
-        w, x, y, z = qq[..., 0], qq[..., 1], qq[..., 2], qq[..., 3]
-        r20 = 2.0 * (x * z - w * y)
-        r21 = 2.0 * (y * z + w * x)
-        r22 = 1.0 - 2.0 * (x * x + y * y)
+        gamma = quaternion.rotate_inverse(qq, _E_Z)  # third row of R(q)
         L1, L2, L3 = LL[..., 0], LL[..., 1], LL[..., 2]
-        p_phi = r20 * L1 + r21 * L2 + r22 * L3
-        e_prime = (L1**2 + L2**2) / (2.0 * self.I1) + self.mgl * r22
+        p_phi = np.sum(gamma * LL, axis=-1)
+        e_prime = (L1**2 + L2**2) / (2.0 * self.I1) + self.mgl * gamma[..., 2]
         energy = e_prime + L3**2 / (2.0 * self.I3)
         return ConservedQuantities(*(_scalar_out(v) for v in (p_phi, L3, energy, e_prime)))
 
     def state_from_euler(self, angles: ArrayLike, rates: ArrayLike) -> tuple[Array, Array]:
-        """The state ``(q, L)`` of Euler angles and rates (sections 1.6.1, 1.6.2, 1.7).
+        """The state ``(q, L)`` of Euler angles and rates (Hand & Finch, ch. 8, Euler angles).
 
         ``q = liebody.euler.to_quaternion(angles)`` and ``L = (I1 w1, I1 w2, I3 w3)`` with
         ``w = liebody.euler.omega_body(angles, rates)``.
@@ -557,7 +565,7 @@ class LagrangeTop:
         return q, omega * np.array([self.I1, self.I1, self.I3])
 
     def motion(self, angles: ArrayLike, rates: ArrayLike) -> TopMotion:
-        """The :class:`TopMotion` (constants of section 1.7) through one state in Euler angles.
+        """The :class:`TopMotion` (constants of the motion, H&F ch. 8) through a state in angles.
 
         Parameters
         ----------
@@ -570,7 +578,7 @@ class LagrangeTop:
         return TopMotion(self, c.p_phi, c.p_psi, c.e_prime)
 
     def motion_from_state(self, q: ArrayLike, L: ArrayLike) -> TopMotion:
-        """The :class:`TopMotion` (constants of section 1.7) through one state ``(q, L)``.
+        """The :class:`TopMotion` (constants of the motion, H&F ch. 8) through a state ``(q, L)``.
 
         ``q`` has shape ``(4,)`` and ``L`` shape ``(3,)``.
         """
@@ -584,7 +592,7 @@ class LagrangeTop:
     # ----------------------------------------------------------------------------------
 
     def effective_potential(self, theta: ArrayLike, p_phi: float, p_psi: float) -> float | Array:
-        """``V_eff(th) = (p_phi - p_psi cos th)^2 / (2 I1 sin^2 th) + M g l cos th`` (1.7).
+        """``V_eff(th) = (p_phi - p_psi cos th)^2 / (2 I1 sin^2 th) + M g l cos th`` (H&F ch. 8).
 
         Parameters
         ----------
@@ -612,7 +620,7 @@ class LagrangeTop:
     def effective_potential_derivative(
         self, theta: ArrayLike, p_phi: float, p_psi: float
     ) -> float | Array:
-        """``dV_eff/dtheta``, the text's expression (section 1.7)::
+        """``dV_eff/dtheta``, in the form of Hand & Finch (ch. 8, the heavy symmetric top)::
 
             dV_eff/dth = (-cos th beta^2 + p_psi sin^2 th beta) / (I1 sin^3 th) - M g l sin th,
             beta = p_phi - p_psi cos th
@@ -634,7 +642,7 @@ class LagrangeTop:
     # ----------------------------------------------------------------------------------
 
     def minimum_spin(self, theta0: float) -> float:
-        """Minimum spin for steady precession at ``theta0`` (section 1.7).
+        """Minimum spin for steady precession at ``theta0`` (Hand & Finch, ch. 8, heavy top).
 
         ``omega3_min = (2 / I3) sqrt(M g l I1 cos theta0)`` for ``theta0 < pi/2``
         (from ``p_psi^2 >= 4 M g l I1 cos theta0``, the discriminant of the quadratic
@@ -660,25 +668,26 @@ class LagrangeTop:
         return 2.0 / self.I3 * math.sqrt(self.mgl * self.I1 * c)
 
     def steady_precession(self, theta0: float, omega3: float) -> SteadyPrecession:
-        """Exact steady-precession rates at tilt ``theta0`` and spin ``omega3`` (section 1.7).
+        """Exact steady-precession rates at tilt ``theta0`` and spin ``omega3`` (H&F ch. 8).
 
         ``V_eff'(theta0) = 0`` with ``beta = p_phi - p_psi cos theta0`` is the quadratic
         ``cos th0 beta^2 - p_psi sin^2 th0 beta + M g l I1 sin^4 th0 = 0``, whose roots
-        are (text) ``beta = p_psi sin^2 th0 / (2 cos th0) [1 +- sqrt(1 - 4 M g l I1 cos
-        th0 / p_psi^2)]``, and ``phidot0 = beta / (I1 sin^2 th0)``. Evaluated without
+        are (Hand & Finch, ch. 8, the heavy symmetric top)
+        ``beta = p_psi sin^2 th0 / (2 cos th0) [1 +- sqrt(1 - 4 M g l I1 cos th0 / p_psi^2)]``,
+        and ``phidot0 = beta / (I1 sin^2 th0)``. Evaluated without
         cancellation: with ``p = I3 omega3``, ``D = sqrt(p^2 - 4 M g l I1 cos th0)`` and
         ``Q = p + sign(p) D``,
 
             phidot_fast = Q / (2 I1 cos th0),    phidot_slow = 2 M g l / Q
 
-        (the text's ``+`` and ``-`` roots; their product is ``M g l / (I1 cos th0)``).
+        (the ``+`` and ``-`` roots; their product is ``M g l / (I1 cos th0)``).
 
         Signs. ``phidot_slow`` always has the sign of ``omega3`` (it tends to
         ``M g l / (I3 omega3)``), for ``theta0 < pi/2`` and ``> pi/2`` alike; the fast
         rate tends to ``I3 omega3 / (I1 cos theta0)`` and changes sign with
-        ``cos theta0``. So for ``theta0 > pi/2`` the two rates have opposite signs, as the
-        text says. The text's "slow precession has the opposite sense" for
-        ``theta0 > pi/2`` holds for the sense relative to the spin axis, which then points
+        ``cos theta0``. So for ``theta0 > pi/2`` the two rates have opposite signs. The
+        usual statement that for ``theta0 > pi/2`` "slow precession has the opposite
+        sense" holds for the sense relative to the spin axis, which then points
         downwards: ``sign(phidot cos theta0 / omega3)`` reverses for the slow rate and is
         kept for the fast one.
 
@@ -714,7 +723,7 @@ class LagrangeTop:
             else:
                 raise ValueError(
                     f"omega3 = {w3!r} is below the minimum spin omega3_min = (2/I3) "
-                    f"sqrt(M g l I1 cos theta0) = {wmin!r} for theta0 = {th!r} (section 1.7): "
+                    f"sqrt(M g l I1 cos theta0) = {wmin!r} for theta0 = {th!r}: "
                     f"steady precession at this tilt is impossible (the quadratic in beta "
                     f"has no real root); |omega3| must be >= {wmin!r}"
                 )
@@ -733,15 +742,14 @@ class LagrangeTop:
         )
 
     def steady_precession_approx(self, theta0: float, omega3: float) -> tuple[float, float]:
-        """Fast-top approximations of the precession rates (section 1.7).
+        """Fast-top approximations of the precession rates (Hand & Finch, ch. 8, heavy top).
 
         ``phidot_fast ~ I3 omega3 / (I1 cos theta0)`` and
         ``phidot_slow ~ M g l / (I3 omega3)``, the first terms of the expansion of the
         exact roots in ``eps = 4 M g l I1 cos theta0 / p_psi^2``; the relative errors are
-        ``eps / 4 + O(eps^2) ~ 1 / omega3^2``.
-
-        The reference text prints ``I_2 omega_z^b / (I1 cos theta0)`` and
-        ``M g h / (I3 omega3)``: ``I_2`` and ``h`` are typos for ``I3`` and ``l``.
+        ``eps / 4 + O(eps^2) ~ 1 / omega3^2``. (The fast rate carries ``I3``, the
+        symmetry-axis moment, since ``p_psi = I3 omega3``; forms printed with ``I_2``, or
+        with ``h`` for the distance ``l``, are typos.)
 
         Parameters
         ----------
@@ -764,7 +772,7 @@ class LagrangeTop:
         self, theta0: float, omega3: float, branch: Branch = "slow", *,
         phi: float = 0.0, psi: float = 0.0,
     ) -> tuple[Array, Array]:
-        """Euler angles and rates that start the top on steady precession (section 1.7).
+        """Euler angles and rates that start the top on steady precession (H&F ch. 8).
 
         ``angles = (phi, theta0, psi)``, ``rates = (phidot0, 0, omega3 - phidot0 cos
         theta0)`` with ``phidot0`` the exact rate of ``branch`` from
@@ -796,7 +804,7 @@ class LagrangeTop:
         phi: float = 0.0, psi: float = 0.0,
     ) -> tuple[Array, Array]:
         """State ``(q, L)`` on steady precession: :meth:`steady_precession_initial_conditions`
-        converted with :meth:`state_from_euler` (sections 1.6, 1.7).
+        converted with :meth:`state_from_euler`.
 
         Returns
         -------
@@ -816,7 +824,7 @@ class LagrangeTop:
 
 @dataclass(frozen=True)
 class TopMotion:
-    """One motion of a Lagrange top, fixed by its constants (section 1.7).
+    """One motion of a Lagrange top, fixed by its constants (Hand & Finch, ch. 8).
 
     Parameters
     ----------
@@ -830,7 +838,7 @@ class TopMotion:
     Notes
     -----
     With ``u = cos(theta)`` the energy equation becomes ``udot^2 = f(u)`` with the cubic
-    (section 1.7, multiplying ``E' - V_eff`` by ``2 sin^2(theta) / I1``)::
+    (multiplying ``E' - V_eff`` by ``2 sin^2(theta) / I1``)::
 
         f(u) = (2 E'/I1 - 2 M g l u / I1) (1 - u^2) - ((p_phi - p_psi u) / I1)^2
 
@@ -857,26 +865,26 @@ class TopMotion:
 
     @property
     def energy(self) -> float:
-        """``E = E' + p_psi^2 / (2 I3)`` (section 1.7)."""
+        """``E = E' + p_psi^2 / (2 I3)`` (Hand & Finch, ch. 8, the heavy symmetric top)."""
         return self.e_prime + self.p_psi**2 / (2.0 * self.top.I3)
 
     @property
     def omega3(self) -> float:
-        """Spin ``omega_3 = p_psi / I3`` (constant, section 1.7)."""
+        """Spin ``omega_3 = p_psi / I3`` (constant; Hand & Finch, ch. 8, the heavy top)."""
         return self.p_psi / self.top.I3
 
     def effective_potential(self, theta: ArrayLike) -> float | Array:
-        """``V_eff(theta)`` of this motion (section 1.7); see
+        """``V_eff(theta)`` of this motion (H&F ch. 8); see
         :meth:`LagrangeTop.effective_potential`."""
         return self.top.effective_potential(theta, self.p_phi, self.p_psi)
 
     def effective_potential_derivative(self, theta: ArrayLike) -> float | Array:
-        """``dV_eff/dtheta`` of this motion (section 1.7); see
+        """``dV_eff/dtheta`` of this motion (H&F ch. 8); see
         :meth:`LagrangeTop.effective_potential_derivative`."""
         return self.top.effective_potential_derivative(theta, self.p_phi, self.p_psi)
 
     def precession_rate(self, theta: ArrayLike) -> float | Array:
-        """``phidot = (p_phi - p_psi cos th) / (I1 sin^2 th)`` (section 1.7).
+        """``phidot = (p_phi - p_psi cos th) / (I1 sin^2 th)`` (Hand & Finch, ch. 8).
 
         NaN where ``sin(theta) == 0`` (the Euler angles are singular there).
         """
@@ -887,7 +895,7 @@ class TopMotion:
         return _scalar_out(np.where(s != 0.0, r, np.nan))
 
     def spin_rate(self, theta: ArrayLike) -> float | Array:
-        """``psidot = p_psi / I3 - (p_phi - p_psi cos th) cos th / (I1 sin^2 th)`` (1.7)."""
+        """``psidot = p_psi / I3 - (p_phi - p_psi cos th) cos th / (I1 sin^2 th)`` (H&F ch. 8)."""
         th = as_float_array("theta", theta)
         return _scalar_out(self.omega3 - np.cos(th) * self.precession_rate(th))
 
@@ -899,7 +907,7 @@ class TopMotion:
         """Coefficients ``(c3, c2, c1, c0)`` of ``f(u) = c3 u^3 + c2 u^2 + c1 u + c0``.
 
         With ``a = 2 E'/I1``, ``b = 2 M g l / I1``, ``al = p_phi / I1``,
-        ``be = p_psi / I1`` (section 1.7)::
+        ``be = p_psi / I1`` (the energy equation of H&F ch. 8 in ``u = cos theta``)::
 
             c3 = b,  c2 = -(a + be^2),  c1 = 2 al be - b,  c0 = a - al^2
         """
@@ -912,7 +920,7 @@ class TopMotion:
 
     def cubic(self, u: ArrayLike) -> float | Array:
         """``f(u) = (2E'/I1 - 2 M g l u / I1)(1 - u^2) - ((p_phi - p_psi u)/I1)^2``
-        (section 1.7), so that ``udot^2 = f(u)`` for ``u = cos(theta)``."""
+        so that ``udot^2 = f(u)`` for ``u = cos(theta)`` (H&F ch. 8, the heavy top)."""
         uu = as_float_array("u", u)
         return _scalar_out(self._f(uu))
 
@@ -925,7 +933,7 @@ class TopMotion:
         return abs(a) + b + (abs(al) + abs(be)) ** 2
 
     def turning_points(self, rtol: float = DOUBLE_ROOT_RTOL) -> TurningPoints:
-        """Turning points ``theta1 <= theta2`` of the tilt (section 1.7).
+        """Turning points ``theta1 <= theta2`` of the tilt (Hand & Finch, ch. 8, the heavy top).
 
         They are the zeros of ``E' - V_eff(theta)``, i.e. the roots ``u1 = cos(theta1)
         >= u2 = cos(theta2)`` in ``[-1, 1]`` of the cubic :meth:`cubic`. Method: the
@@ -978,7 +986,7 @@ class TopMotion:
         ustar, fmax = cands[i], fvals[i]
         if fmax < -tol * scale:
             raise ValueError(
-                f"no motion has these constants (section 1.7): E' = {self.e_prime!r} is below "
+                f"no motion has these constants: E' = {self.e_prime!r} is below "
                 f"the minimum of V_eff (max of f(u) on [-1, 1] is {fmax:.3e} < 0) for "
                 f"p_phi = {self.p_phi!r}, p_psi = {self.p_psi!r}"
             )
@@ -1012,21 +1020,19 @@ class TopMotion:
         *,
         rtol: float = DOUBLE_ROOT_RTOL,
     ) -> float:
-        """Period of the nutation ``theta(t)`` between ``theta1`` and ``theta2`` (section 1.7).
+        """Period of the nutation ``theta(t)`` between ``theta1`` and ``theta2`` (H&F ch. 8).
 
         ``T = 2 int_{theta1}^{theta2} dtheta / sqrt((2/I1)(E' - V_eff))
-        = 2 int_{u2}^{u1} du / sqrt(f(u))`` (the text's ``t(theta)`` over a full swing).
+        = 2 int_{u2}^{u1} du / sqrt(f(u))``: Hand & Finch's ``t(theta)`` (ch. 8, the heavy
+        symmetric top) over a full swing.
 
-        ``"elliptic"`` (default). For ``u`` in ``[u2, u1]``,
-        ``f(u) = b (u3 - u)(u1 - u)(u - u2)`` with ``b = 2 M g l / I1``. Substituting
-        ``u = u2 + (u1 - u2) sin^2(phi)`` gives ``u - u2 = (u1 - u2) sin^2``,
-        ``u1 - u = (u1 - u2) cos^2``, ``u3 - u = (u3 - u2)(1 - k^2 sin^2)`` and
-        ``du = 2 (u1 - u2) sin cos dphi``, so that::
+        ``"elliptic"`` (default): with the three roots ``u2 <= u1 <= u3`` of ``f`` and
+        ``b = 2 M g l / I1``::
 
-            int_{u2}^{u1} du / sqrt(f) = 2 K(k) / sqrt(b (u3 - u2)),
             T = 4 K(k) / sqrt(b (u3 - u2)),   k^2 = (u1 - u2) / (u3 - u2)
 
-        (:func:`scipy.special.ellipk` takes ``m = k^2``). At a double root
+        (:func:`scipy.special.ellipk` takes ``m = k^2``; derivation: docs/derivations.md,
+        section "Nutation period of the heavy symmetric top"). At a double root
         (``k = 0``) this is the small-oscillation period ``2 pi / sqrt(b (u3 - u0))
         = 2 pi sqrt(I1 / V_eff''(theta0))``; at a separatrix (``u3 = u1``, e.g. the
         unstable sleeping top) ``T = inf``.
@@ -1034,7 +1040,7 @@ class TopMotion:
         ``"quad_u"``: :func:`scipy.integrate.quad` of ``2 int du / sqrt(f(u))`` after
         ``u = u_mid + u_half sin(s)``, which removes the inverse-square-root endpoint
         singularities (the integrand tends to ``sqrt(2 u_half / |f'(u_end)|)``).
-        ``"quad_theta"``: the same with the text's ``theta`` integrand and
+        ``"quad_theta"``: the same with the ``theta`` integrand of ``t(theta)`` and
         ``theta = theta_mid + theta_half sin(s)``. Both use the turning points only;
         at a double root they return the small-oscillation limit
         ``2 pi / sqrt(-f''(u0) / 2)``.
@@ -1111,7 +1117,7 @@ class TopMotion:
         return val
 
     def theta_of_time(self, t: ArrayLike, *, rtol: float = DOUBLE_ROOT_RTOL) -> float | Array:
-        """The tilt ``theta(t)``, inverting the text's ``t(theta)`` (section 1.7).
+        """The tilt ``theta(t)``, inverting ``t(theta)`` (Hand & Finch, ch. 8, the heavy top).
 
         With ``t = 0`` at the highest position ``theta1`` (``u = u1``)::
 
@@ -1120,7 +1126,8 @@ class TopMotion:
 
         (Jacobi elliptic functions, :func:`scipy.special.ellipj`; this follows from the
         substitution of :meth:`nutation_period`, ``u = u2 + (u1 - u2) sn^2``, shifted
-        by a half period). Period :meth:`nutation_period`.
+        by a half period: docs/derivations.md, section "Nutation period of the heavy
+        symmetric top"). Period :meth:`nutation_period`.
 
         Parameters
         ----------
@@ -1147,7 +1154,7 @@ class TopMotion:
         return _scalar_out(np.arccos(np.clip(u, -1.0, 1.0)))
 
     def motion_kind(self, tol: float = 1e-6, *, rtol: float = DOUBLE_ROOT_RTOL) -> MotionKind:
-        """What curve the symmetry axis draws on the unit sphere (section 1.7).
+        """What curve the symmetry axis draws on the unit sphere (Hand & Finch, ch. 8).
 
         ``phidot = (p_phi - p_psi u) / (I1 (1 - u^2))`` has the sign of the linear
         function ``g(u) = p_phi - p_psi u``. With ``g1 = g(u1)``, ``g2 = g(u2)``:

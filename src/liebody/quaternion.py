@@ -141,6 +141,9 @@ def to_matrix(q: ArrayLike) -> Array:
 def from_matrix(matrix: ArrayLike, *, tol: float = 1e-9) -> Array:
     """Unit quaternions (``w >= 0``) from rotation matrices, Shepperd's stable method.
 
+    S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and Control 1 (1978)
+    223-224.
+
     The largest of ``|w|, |x|, |y|, |z|`` is taken from a square root of the trace
     or a diagonal combination and the other three are divided by it, so the result
     is accurate to round-off for every rotation, including angles near 0 and pi.

@@ -1,7 +1,8 @@
-"""liebody.euler against the reference text (section 1.6), scipy and exact derivatives.
+"""liebody.euler against the definition of the Euler angles, scipy and exact derivatives.
 
-References used here are independent of the implementation: the text's matrices
-copied term by term, scipy's ``Rotation`` ('ZXZ' intrinsic, scalar-last quaternions),
+References used here are independent of the implementation: the z-x-z rotation
+matrices of Hand & Finch, *Analytical Mechanics*, ch. 8 (Euler angles) copied term by
+term, scipy's ``Rotation`` ('ZXZ' intrinsic, scalar-last quaternions),
 the product rule on ``V1 V2 V3`` and finite differences of ``V(t)``.
 
 Property tests run without a hypothesis deadline: the first example of a test may
@@ -68,7 +69,7 @@ def V_of(angles):
     return E.matrix(a[..., 0], a[..., 1], a[..., 2])
 
 
-# --- the reference text, section 1.6.1, copied term by term --------------------------
+# --- Hand & Finch's definition of the Euler angles (ch. 8), copied term by term -----
 
 
 def text_V(phi, theta, psi):
@@ -109,7 +110,7 @@ def test_matrix_matches_text_term_by_term(phi, theta, psi):
 @settings(deadline=None)
 @given(big_angle, big_angle, big_angle)
 def test_matrix_is_product_of_text_rotations(phi, theta, psi):
-    # V = V1 V2 V3 with V_i the transposes of the text's tilde V_i; tilde V = V3~ V2~ V1~
+    # V = V1 V2 V3 with V_i the transposes of the tilde V_i; tilde V = V3~ V2~ V1~
     tilde = text_tilde_V3(psi) @ text_tilde_V2(theta) @ text_tilde_V1(phi)
     V = E.matrix(phi, theta, psi)
     np.testing.assert_allclose(V, tilde.T, atol=1e-14, rtol=0)
@@ -126,7 +127,7 @@ def test_matrix_matches_scipy_and_is_proper_rotation():
     np.testing.assert_allclose(np.swapaxes(V, -1, -2) @ V, np.broadcast_to(np.eye(3), V.shape),
                                atol=2e-15, rtol=0)
     np.testing.assert_allclose(np.linalg.det(V), 1.0, atol=2e-15, rtol=0)
-    # body to space: the body z axis lands on the text's third column
+    # body to space: the body z axis lands on the third column of V
     ez = V @ np.array([0.0, 0.0, 1.0])
     np.testing.assert_allclose(ez, np.stack([np.sin(a[:, 1]) * np.sin(a[:, 0]),
                                              -np.sin(a[:, 1]) * np.cos(a[:, 0]),
@@ -324,7 +325,7 @@ def test_rotation_angle_trace_relation_and_axis(a):
     # angles the two differ by the rounding ~eps |phi| of that sum
     atol = 1e-14 + 4 * EPS * np.abs(a).sum()
     np.testing.assert_allclose(1 + 2 * np.cos(Phi), np.trace(V), atol=atol, rtol=0)
-    # the text's cos(Phi/2) = cos((phi+psi)/2) cos(theta/2), up to the Phi <-> 2pi - Phi choice
+    # cos(Phi/2) = cos((phi+psi)/2) cos(theta/2), up to the Phi <-> 2pi - Phi choice
     np.testing.assert_allclose(np.cos(Phi / 2),
                                abs(np.cos((a[0] + a[2]) / 2) * np.cos(a[1] / 2)),
                                atol=1e-14, rtol=0)
@@ -457,7 +458,7 @@ def test_rates_raises_at_gimbal_lock():
     assert np.isnan(r[[1, 3]][:, [0, 2]]).all()
     assert np.isfinite(r[[0, 2]]).all() and np.isfinite(r[:, 1]).all()
     np.testing.assert_allclose(r[0], E.rates(a[0], w), atol=0, rtol=0)
-    # thetadot is still the text's w1 cos psi - w2 sin psi at the singular samples
+    # thetadot is still w1 cos psi - w2 sin psi at the singular samples
     np.testing.assert_allclose(r[1, 1], 0.1 * np.cos(0.2) - 0.2 * np.sin(0.2), atol=1e-16, rtol=0)
 
 
@@ -555,7 +556,7 @@ def test_rotation_angle_accepts_the_texts_three_arguments():
     stacked = np.stack(np.broadcast_arrays(phi, theta, psi), axis=-1)
     np.testing.assert_array_equal(E.rotation_angle(phi, theta, psi), E.rotation_angle(stacked))
     np.testing.assert_array_equal(E.rotation_axis(phi, theta, psi), E.rotation_axis(stacked))
-    # the trace relation, directly in the text's form
+    # the trace relation in the form cos(Phi/2) = cos((phi + psi)/2) cos(theta/2)
     Phi = E.rotation_angle(0.3, 1.1, 0.7)
     assert abs(abs(np.cos(Phi / 2)) - abs(np.cos((0.3 + 0.7) / 2) * np.cos(1.1 / 2))) < 1e-15
     with pytest.raises(TypeError, match="all three of phi, theta, psi"):

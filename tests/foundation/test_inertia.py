@@ -157,7 +157,7 @@ def test_tensor_validation(masses, positions, origin, exc, match):
 
 
 # ------------------------------------------------------------------------------------
-# parallel axis theorem (section 1.2) and the thin disk example (section 1.2.1)
+# parallel axis theorem and its thin-disk example (Hand & Finch, ch. 8)
 # ------------------------------------------------------------------------------------
 
 
@@ -530,7 +530,7 @@ def test_rotated_disk_equals_rotated_tensor_and_edge_example():
         assert props.mass == M
         np.testing.assert_array_equal(props.center_of_mass, [1.0, 2.0, 3.0])
         np.testing.assert_allclose(props.inertia, expected, atol=1e-14, rtol=0)
-    # unrotated: the text's edge example through MassProperties.about
+    # unrotated: the thin-disk example (axis through the rim) through MassProperties.about
     props = inertia.composite([Part(M, [1.0, 2.0, 3.0], inertia.thin_disk(M, R))])
     assert props.about([1.0 + R, 2.0, 3.0])[2, 2] == 27.0
 

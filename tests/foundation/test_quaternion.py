@@ -62,6 +62,41 @@ def test_rotate_matches_scipy_and_matrix(qs):
                                atol=1e-14, rtol=0)
 
 
+def test_rotate_inverse_matches_transpose_and_scipy(qs):
+    """rotate_inverse(q, v) = R(q)^T v, the inverse rotation (space to body)."""
+    v = np.random.default_rng(10).normal(size=(200, 3))
+    back = Q.rotate_inverse(qs, v)
+    expected = Rotation.from_quat(Q.to_scipy(qs)).inv().apply(v)
+    np.testing.assert_allclose(back, expected, atol=1e-14, rtol=0)
+    np.testing.assert_allclose(back, np.einsum("nji,nj->ni", Q.to_matrix(qs), v),
+                               atol=1e-14, rtol=0)
+    np.testing.assert_allclose(Q.rotate_inverse(qs, Q.rotate(qs, v)), v, atol=1e-14, rtol=0)
+    # the space vertical seen from the body is the third row of R(q)
+    np.testing.assert_allclose(Q.rotate_inverse(qs, [0.0, 0.0, 1.0]), Q.to_matrix(qs)[:, 2, :],
+                               atol=1e-15, rtol=0)
+    # q and -q are the same rotation
+    np.testing.assert_array_equal(Q.rotate_inverse(-qs, v), back)
+
+
+def test_rotate_inverse_broadcasts_and_rejects_non_unit_q():
+    q = Q.random((2, 3), rng=11)
+    assert Q.rotate_inverse(q, [1.0, 0.0, 0.0]).shape == (2, 3, 3)
+    assert Q.rotate_inverse(q[0, 0], np.ones((5, 3))).shape == (5, 3)
+    v = np.random.default_rng(12).normal(size=(4, 1, 3))
+    out = Q.rotate_inverse(q[0], v)  # batch (3,) against (4, 1): (4, 3)
+    assert out.shape == (4, 3, 3)
+    R = Q.to_matrix(q[0])
+    np.testing.assert_allclose(out, np.einsum("bji,abj->abi", R, np.broadcast_to(v, (4, 3, 3))),
+                               atol=1e-14, rtol=0)
+    assert Q.rotate_inverse(Q.IDENTITY, [1.0, 2.0, 3.0]).tolist() == [1.0, 2.0, 3.0]
+    with pytest.raises(ValueError, match=r"q must be a unit quaternion.*normalize"):
+        Q.rotate_inverse([1.0, 1e-4, 0.0, 0.0], [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"q must be a unit quaternion"):
+        Q.rotate_inverse(2.0 * q, [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"v must have shape"):
+        Q.rotate_inverse(Q.IDENTITY, [1.0, 0.0])
+
+
 def test_rotate_is_conjugation_by_product(qs):
     v = np.random.default_rng(2).normal(size=(200, 3))
     pure = np.concatenate([np.zeros((200, 1)), v], axis=1)

@@ -1,7 +1,9 @@
 """Exact free-rigid-body flow (liebody._kernels.exact) in every regime.
 
 References: 34-digit values (mpmath Taylor ODE solver, computed once and pasted here,
-so CI needs no mpmath), the literature values of section 8, and scipy's DOP853
+so CI needs no mpmath), reference values for the standard test bodies computed
+independently of liebody (DOP853 at rtol 1e-13, cross-checked with an eighth-order
+composition; docs/references.md), and scipy's DOP853
 (rtol 1e-13, atol 1e-15) on the 7-dimensional system; plus identities (group
 property, time reversal, invariants, permutation equivariance, Dzhanibekov period).
 
@@ -126,7 +128,11 @@ def test_high_precision_reference(case):
 
 
 def test_literature_values():
-    """Section 8 reference values (12 digits)."""
+    """Reference values at t = 10 (12 digits) for the HLW, Hairer–Vilmart and flat bodies.
+
+    Computed independently of liebody (not published values): DOP853 at rtol 1e-13,
+    cross-checked with an eighth-order composition to 5e-14.
+    """
     q, m = flow(HLW[0], (1.0, 0.0, 0.0, 0.0), HLW[1], 10.0)
     assert np.allclose(m, [0.407066136588, 0.283007426813, 0.868449167662], rtol=0, atol=1e-12)
     assert qdist(q, [0.765111030829, 0.374319551483, 0.102854131455, 0.513722699054]) < 1e-12
@@ -342,7 +348,7 @@ def test_separatrix_limit_from_both_sides():
 
 
 def test_dzhanibekov_period():
-    """Section 10: I = (1, 2, 3), m0 = (1e-2, 2, 1e-2); period 4 K(k) / nu = 42.913457."""
+    """Landau & Lifshitz §37: I = (1, 2, 3), m0 = (1e-2, 2, 1e-2); period 4 K(k)/nu = 42.913457."""
     I = np.array([1.0, 2.0, 3.0])
     m0 = np.array([1e-2, 2.0, 1e-2])
     i1, i2, i3 = I

@@ -35,14 +35,23 @@ def test_splitting2_stage_table_has_merged_ends(hlw):
 
 
 def test_ordering_choice_is_fassos_and_is_recorded(hlw):
-    """HLW body: 2-1-3-1-2 has the smallest energy-error constant (Fassò 2003)."""
+    """HLW body: 2-1-3-1-2 has the smallest energy-error constant.
+
+    The leading modified-Hamiltonian term H3 varies least over the orbit for this
+    ordering (about 30x less than for the worst one); that the ordering matters is
+    Fassò's observation (J. Comput. Phys. 189 (2003) 527).
+    """
     scene, L0 = hlw
     tr = liebody.integrate(scene, L0=L0, dt=0.1, steps=10, method="splitting2")
     assert tr.info["axis_ordering"] == (1, 0, 2)
 
 
 def test_modified_hamiltonian_closed_form():
-    """The generic nested-BCH H3 equals McLachlan's closed form for the sequence 1-2-3-2-1."""
+    """The generic nested-BCH H3 equals its closed form for the sequence 1-2-3-2-1.
+
+    The closed form was derived symbolically (symmetric BCH formula, bracket
+    {F, G}(m) = -m . (grad F x grad G)), independently of liebody._ordering.
+    """
     I1, I2, I3 = 0.6, 0.8, 1.0
     m = np.random.default_rng(0).normal(size=(20, 3))
     pieces = [np.eye(3)[k] / (I1, I2, I3)[k] for k in range(3)]

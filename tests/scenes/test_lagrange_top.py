@@ -1,7 +1,8 @@
-"""liebody.lagrange_top against the reference text (section 1.7) and independent references.
+"""liebody.lagrange_top against the heavy symmetric top of Hand & Finch, *Analytical
+Mechanics*, ch. 8, and independent references.
 
 The references here do not use the module under test: the Euler-Lagrange equations of
-the text's Lagrangian written out by hand (general mass-matrix form, no conservation law
+the top's Lagrangian written out by hand (general mass-matrix form, no conservation law
 built in) and integrated with scipy's DOP853; the effective potential written out again
 and differentiated by complex step; finite differences of the Lagrangian; numpy's
 polynomial roots; liebody.euler / liebody.quaternion for the (q, L) states.
@@ -45,7 +46,7 @@ HANGING = ([0.0, 2.5, 0.0], [0.4, 0.3, 2.0])  # centre of mass below the fixed p
 
 
 def ref_veff(top, th, p_phi, p_psi):
-    """Text's V_eff, written again (complex-safe for complex-step derivatives)."""
+    """V_eff of Hand & Finch, written again (complex-safe for complex-step derivatives)."""
     return (p_phi - p_psi * np.cos(th)) ** 2 / (2 * top.I1 * np.sin(th) ** 2) + top.mgl * np.cos(
         th)
 
@@ -106,7 +107,7 @@ def period_1d(top, motion, theta0, thetadot0, n=4):
 
 
 def text_beta_roots(top, theta0, p_psi):
-    """The text's closed form beta = p_psi s^2/(2c) [1 +- sqrt(1 - 4 mgl I1 c / p_psi^2)]."""
+    """Hand & Finch's closed form beta = p_psi s^2/(2c) [1 +- sqrt(1 - 4 mgl I1 c / p_psi^2)]."""
     s, c = math.sin(theta0), math.cos(theta0)
     root = math.sqrt(1 - 4 * top.mgl * top.I1 * c / p_psi**2)
     pre = p_psi * s**2 / (2 * c)
@@ -124,7 +125,7 @@ def test_lagrangian_momenta_and_energy_are_the_text_formulas():
         a = np.array([rng.uniform(-3, 3), rng.uniform(0.2, 2.9), rng.uniform(-3, 3)])
         r = rng.uniform(-4, 4, 3)
         c = TOP.conserved(a, r)
-        # T = 1/2 sum I_k omega_k^2 from liebody.euler.omega_body (section 1.6.2 route)
+        # T = 1/2 sum I_k omega_k^2 from liebody.euler.omega_body (angular velocity route)
         w = E.omega_body(a, r)
         T = 0.5 * (TOP.I1 * (w[0] ** 2 + w[1] ** 2) + TOP.I3 * w[2] ** 2)
         V = TOP.mgl * math.cos(a[1])
@@ -145,7 +146,7 @@ def test_lagrangian_momenta_and_energy_are_the_text_formulas():
         assert c.e_prime == pytest.approx(c.energy - c.p_psi**2 / (2 * TOP.I3), rel=1e-12)
         veff = ref_veff(TOP, a[1], c.p_phi, c.p_psi)
         assert c.e_prime == pytest.approx(0.5 * TOP.I1 * r[1] ** 2 + veff, rel=1e-11)
-        # phidot(theta), psidot(theta) of the text recover the rates
+        # phidot(theta), psidot(theta) from p_phi, p_psi recover the rates
         m = TOP.motion(a, r)
         assert m.precession_rate(a[1]) == pytest.approx(r[0], rel=1e-11, abs=1e-11)
         assert m.spin_rate(a[1]) == pytest.approx(r[2], rel=1e-11, abs=1e-11)
@@ -217,7 +218,7 @@ def test_effective_potential_and_text_derivative():
                                rtol=1e-14)
     np.testing.assert_allclose(m.effective_potential_derivative(th),
                                ref_dveff(TOP, th, m.p_phi, m.p_psi), rtol=1e-11, atol=1e-12)
-    # dV_eff/dth = -Q(beta) / (I1 sin^3 th), Q the text's quadratic in beta
+    # dV_eff/dth = -Q(beta) / (I1 sin^3 th), Q the steady-precession quadratic in beta
     s, c = np.sin(th), np.cos(th)
     beta = m.p_phi - m.p_psi * c
     quad = c * beta**2 - m.p_psi * s**2 * beta + TOP.mgl * TOP.I1 * s**4
@@ -257,7 +258,7 @@ def test_steady_precession_is_the_minimum_of_veff(theta0, branch):
                                    bounds=(0.02, 3.12), method="bounded",
                                    options={"xatol": 1e-10})
     assert res.x == pytest.approx(theta0, abs=1e-6)
-    # the text's quadratic in beta and its closed-form roots
+    # the steady-precession quadratic in beta and its closed-form roots
     s, cc = math.sin(theta0), math.cos(theta0)
     for b in (sp.beta_fast, sp.beta_slow):
         terms = [cc * b * b, p_psi * s * s * b, TOP.mgl * TOP.I1 * s**4]
@@ -309,7 +310,7 @@ def test_fast_top_approximations_converge_like_one_over_omega3_squared():
         for w3 in omegas:
             sp = TOP.steady_precession(theta0, w3)
             fast, slow = TOP.steady_precession_approx(theta0, w3)
-            # the text's forms, with its typos I_2 -> I3 and h -> l corrected
+            # the fast-top forms I3 w3 / (I1 cos th0) and M g l / (I3 w3)
             assert fast == pytest.approx(TOP.I3 * w3 / (TOP.I1 * math.cos(theta0)), rel=1e-15)
             assert slow == pytest.approx(TOP.mgl / (TOP.I3 * w3), rel=1e-15)
             errs.append((abs(fast / sp.phidot_fast - 1), abs(slow / sp.phidot_slow - 1)))
@@ -370,7 +371,7 @@ def test_minimum_spin_at_zero_tilt_is_the_sleeping_top_limit():
 def test_precession_senses_for_a_hanging_top():
     """theta0 > pi/2. About the space vertical, the slow rate keeps the sign of omega3
     (-> mgl / (I3 omega3)) and the fast one flips with cos(theta0): the two have opposite
-    signs (text). The text's "slow precession has opposite sense" holds relative to the
+    signs. The usual "slow precession has opposite sense" holds relative to the
     symmetry axis (which then points down): sign(phidot cos(theta0) / omega3)."""
     w3 = 7.0
     up, down = TOP.steady_precession(0.5, w3), TOP.steady_precession(2.3, w3)

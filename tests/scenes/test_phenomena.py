@@ -1,16 +1,22 @@
-"""The reference text's phenomena, simulated with liebody.integrate and checked against
+"""Classical rigid-body phenomena, simulated with liebody.integrate and checked against
 the closed forms of liebody.analysis (long-run regression tests).
 
 Each test integrates a free body, measures a phenomenon from the samples, and compares it
-with the text's formula:
+with the closed form (topics of Hand & Finch, *Analytical Mechanics*, ch. 8, "H&F", and
+Landau & Lifshitz, *Mechanics*, §37):
 
-* Chandler wobble of the rigid Earth (text 1.5; literature 8.5): period A/(C - A)
-  sidereal days, with the exact flow, sr2, and splitting2 (whose error we predict);
-* intermediate-axis instability (text 1.5.2): growth rate sqrt(r1 r3) omega2, and the
-  bounded oscillation about the smallest and largest axes for 1e4 periods;
-* Dzhanibekov flips (literature 10): sign changes of L_2 every T_m / 2 = 2 K(k) / nu;
-* body and space cones of a symmetric top (text 1.5.1), oblate and prolate;
-* only rotation about a principal axis is torque-free (text 1.4, 1.4.1).
+* Chandler wobble of the rigid Earth (H&F: the force-free symmetric top; IERS 2010
+  flattening): period A/(C - A) sidereal days, with the exact flow, sr2, and splitting2
+  (whose error we predict);
+* intermediate-axis instability (H&F: stability of rotation about the principal axes):
+  growth rate sqrt(r1 r3) omega2, and the bounded oscillation about the smallest and
+  largest axes for 1e4 periods;
+* Dzhanibekov flips (Landau & Lifshitz §37): sign changes of L_2 every
+  T_m / 2 = 2 K(k) / nu;
+* body and space cones of a symmetric top (H&F: the symmetric top in the inertial
+  frame), oblate and prolate;
+* only rotation about a principal axis is torque-free (H&F: Euler's equations, the
+  rotating dumbbell).
 
 ``method=None`` is the FreeBody default, the exact flow evaluated at the output times
 (no stepping error): it isolates the measurement and the physics. The stepping methods
@@ -43,7 +49,7 @@ def relative_error(measured: float, predicted: float) -> float:
 
 
 # ------------------------------------------------------------------------------------------
-# Chandler wobble of the rigid Earth (text 1.5, literature 8.5)
+# Chandler wobble of the rigid Earth (H&F: the force-free symmetric top)
 # ------------------------------------------------------------------------------------------
 
 DAY = bodies.SIDEREAL_DAY
@@ -71,7 +77,7 @@ def test_chandler_period_exact_flow_and_sr2(method, dt):
     assert relative_error(period_days, CHANDLER) < 1e-9  # measured ~5e-13
     # the same period from the other equatorial component
     assert relative_error(analysis.wobble_period(traj, 1) / DAY, CHANDLER) < 1e-9
-    # the pole circles the figure axis at a constant distance (text 1.5: c = const)
+    # the pole circles the figure axis at a constant distance (omega1 = c cos, c = const)
     polar = np.hypot(traj.omega[:, 0], traj.omega[:, 1])
     np.testing.assert_allclose(polar, SPIN * math.sin(POLAR_OFFSET), rtol=1e-9)
 
@@ -133,7 +139,7 @@ def test_chandler_period_splitting2_small_steps_second_order():
 
 
 def test_chandler_space_precession():
-    """In space, omega and the figure axis circle the fixed L at |L|/A (text 1.5.1): once
+    """In space, omega and the figure axis circle the fixed L at |L|/A (H&F: inertial frame): once
     per (sidereal) day, slightly faster."""
     traj = simulate_earth(None, DAY / 64, n_wobbles=0.02)  # 6 days, 64 samples a day
     A = bodies.earth().moments[0]
@@ -143,7 +149,7 @@ def test_chandler_space_precession():
 
 
 # ------------------------------------------------------------------------------------------
-# stability of the principal axes (text 1.5.2)
+# stability of the principal axes (H&F: stability of rotation about the principal axes)
 # ------------------------------------------------------------------------------------------
 
 MOMENTS = np.array([1.0, 2.0, 3.0])
@@ -206,7 +212,7 @@ def test_smallest_and_largest_axes_stay_bounded_for_1e4_periods(axis, method, dt
 
 
 # ------------------------------------------------------------------------------------------
-# Dzhanibekov flips (literature 10)
+# Dzhanibekov flips (Landau & Lifshitz §37)
 # ------------------------------------------------------------------------------------------
 
 
@@ -236,7 +242,7 @@ def test_flips_repeat_every_half_period(L0, method):
 
 
 # ------------------------------------------------------------------------------------------
-# cones of the symmetric top (text 1.5.1)
+# cones of the symmetric top (H&F: the symmetric top in the inertial frame)
 # ------------------------------------------------------------------------------------------
 
 
@@ -245,7 +251,7 @@ def test_flips_repeat_every_half_period(L0, method):
 def test_body_and_space_cones(shape, method):
     """omega sweeps the body cone (half-angle alpha) about the figure axis and the space
     cone (|alpha - theta|) about the fixed L; omega, L and the axis stay coplanar; the
-    plane turns about L at |L|/I (text 1.5.1). Oblate: alpha > theta; prolate: alpha <
+    plane turns about L at |L|/I (H&F). Oblate: alpha > theta; prolate: alpha <
     theta."""
     I, I3 = (1.0, 1.8) if shape == "oblate" else (2.0, 1.0)
     body = liebody.RigidBody([I, I, I3])
@@ -272,7 +278,7 @@ def test_body_and_space_cones(shape, method):
     scale = np.linalg.norm(traj.omega, axis=1) * np.linalg.norm(traj.L, axis=1)
     assert np.max(np.abs(triple) / scale) < 1e-12
 
-    # body frame: omega circles the axis at Omega (text 1.5), sense included
+    # body frame: omega circles the axis at Omega (force-free symmetric top), sense included
     Omega = analysis.precession_rate(I, I3, omega3)
     assert relative_error(analysis.wobble_period(traj, 0), 2 * math.pi / abs(Omega)) < 1e-9
     azimuth = np.unwrap(np.arctan2(traj.omega[:, 1], traj.omega[:, 0]))
@@ -288,7 +294,7 @@ def test_body_and_space_cones(shape, method):
 
 
 # ------------------------------------------------------------------------------------------
-# only rotation about a principal axis is torque-free (text 1.4, 1.4.1)
+# only rotation about a principal axis is torque-free (H&F: Euler's equations)
 # ------------------------------------------------------------------------------------------
 
 BOOK = bodies.book()
@@ -313,7 +319,7 @@ def test_rotation_about_a_non_principal_axis_does_not_keep_omega(method):
     rate -I^-1 N with N = omega x (I omega) the torque that would hold it steady."""
     omega0 = 5.0 * np.array([0.6, 0.0, 0.8])  # in the x-z plane, as the dumbbell of 1.4.1
     N = analysis.steady_rotation_torque(BOOK.moments, omega0)
-    # as for the dumbbell (1.4.1): only N_2 = omega1 omega3 (I1 - I3) is needed, not zero
+    # as for the rotating dumbbell: only N_2 = omega1 omega3 (I1 - I3) is needed, not zero
     I1, _, I3 = BOOK.moments
     np.testing.assert_allclose(N, [0.0, omega0[0] * omega0[2] * (I1 - I3), 0.0], rtol=1e-14,
                                atol=0.0)

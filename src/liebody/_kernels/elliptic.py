@@ -6,59 +6,37 @@ their own. Every kernel is ``@jit``, takes and returns float64 scalars
 
 Parameters follow the *parameter* convention ``m = k^2`` and, wherever ``m`` may be
 close to 1, the caller passes the complementary parameter ``mc = 1 - m`` as well,
-computed without cancellation (for the rigid body from Leroy's formulas, see the
-literature notes section 5.1). Nothing here forms ``1 - m`` itself.
+computed without cancellation (for the rigid body from P. Leroy's formula for the
+complementary parameter, see docs/derivations.md, "Exact free-body flow"). Nothing
+here forms ``1 - m`` itself.
+
+Algorithms, error analysis and measured accuracy: docs/derivations.md, section
+"Elliptic integrals and Jacobi functions"; sources: docs/references.md.
 
 Contents
 --------
 carlson_rf(x, y, z)
-    Carlson's ``R_F``, duplication algorithm (Carlson 1995, Numer. Algorithms 10,
-    13-26, algorithm 1): iterate ``lambda = sqrt(x y) + sqrt(y z) + sqrt(z x)``,
-    ``(x, y, z) <- (x, y, z, A) + lambda) / 4`` until ``4^-m Q < |A_m|`` with
-    ``Q = (3 r)^(-1/6) max|A_0 - x_0|``, then the degree-5 series
-    ``A^-1/2 (1 - E2/10 + E3/14 + E2^2/24 - 3 E2 E3/44)``; truncation error
-    ``< r`` with ``r = 2^-53`` (``Q`` factor ``(3r)^(-1/6)``, i.e. stop at relative spread
-    2.6e-3 -- the same as Numerical Recipes' ERRTOL 0.0025 with the same series, so
-    those are not coarse for double precision; a 10x tighter stop changes nothing, the
-    error is round-off). Measured: <= 7e-16 relative (mpmath).
+    Carlson's ``R_F``, duplication algorithm (B. C. Carlson, Numer. Algorithms 10 (1995)
+    13-26, algorithm 1) with the degree-5 series, stopped at the relative spread
+    ``(3 r)^(1/6)``, ``r = 2^-53``. Measured: <= 7e-16 relative (mpmath).
 carlson_rj(x, y, z, p)
-    Carlson's ``R_J`` (``p > 0``), Carlson 1995 algorithm 3:
-    ``R_J = 4^-N A_N^(-3/2) S(E2..E5) + 6 sum_m 4^-m R_C(1, 1 + e_m) / d_m``,
-    ``d_m = (sqrt p + sqrt x)(sqrt p + sqrt y)(sqrt p + sqrt z)``,
-    ``e_m = 4^(-3m) (p - x)(p - y)(p - z) / d_m^2``; ``R_C(1, 1 + e)`` is
-    ``atan(sqrt e)/sqrt e`` (``atanh`` for ``e < 0``, with ``1 + e_m`` formed as
-    ``2 sqrt(p) (p + lambda) / d_m``, which removes the cancellation of the published
-    form when ``p << x, y, z``), by its Taylor series once
-    ``|e| < 1e-3`` (this happens after one or two steps, since ``e_m`` falls by ~64
-    per step), so usually only one or two ``atan`` calls are made. ``Q`` factor
-    ``(r/4)^(-1/6)`` (stop at spread 1.7e-3, as NR's 0.0015). Measured over random
-    arguments spanning 13 decades: <= 5e-15 relative, median 1.5e-16 (mpmath); in the
-    exact-flow range (``p >= 1 >= x, y``, ``z = 1``) ~2e-16.
+    Carlson's ``R_J`` (``p > 0``), Carlson 1995 algorithm 3, with ``R_C(1, 1 + e_m)`` in
+    closed form and ``1 + e_m`` formed without the cancellation of the published form
+    when ``p << x, y, z``. Measured: <= 5e-15 relative, median 1.5e-16 (mpmath).
 landen_chain(k, kc), landen_k(k, nlev, ks), landen_eval(u, k, kc, nlev, ks, kcs, K)
-    The same, split into the per-modulus part (chain of moduli, up to 16 levels, one
-    ``sqrt`` each) and the per-argument part; the exact flow keeps the chain in its plan.
+    :func:`jacobi_landen` split into the per-modulus part (chain of moduli, up to 16
+    levels, one ``sqrt`` each) and the per-argument part; the exact flow keeps the chain
+    in its plan.
 jacobi_landen(u, k, kc)
     ``(sn, cn, dn, j, K)`` of the *reduced* argument ``u - 2 j K`` in ``[-K, K]`` and
-    the complete integral ``K(k)``: descending Landen (Gauss) transformation
-    (DLMF 22.7.1, A&S 16.12) with ``k_{i+1} = (k_i / (1 + k'_i))^2``,
-    ``k'_{i+1} = 2 sqrt(k'_i) / (1 + k'_i)`` (both cancellation-free) until
-    ``k_N < 3e-9``; there ``sn = sin``, ``cn = cos``, ``dn = 1 - k^2 sin^2 / 2``,
-    ``K_N = pi/2 (1 + k_N^2/4)`` (errors ``O(k_N^2) < 1e-17``). Going back up,
-    ``sn = (1 + k1) s1 / (1 + k1 s1^2)``, ``cn = c1 d1 / (1 + k1 s1^2)``,
-    ``dn = (c1^2 + (1 - k1) s1^2) / (1 + k1 s1^2)``: products and quotients of
-    positive numbers; but they double relative errors per level where ``k_{i+1}`` is not
-    small, so wherever ``sn^2 <= 1/2`` at such a level ``cn = sqrt((1-sn)(1+sn))`` and
-    ``dn = sqrt(cn^2 + k_i'^2 sn^2)`` are rebuilt from ``sn`` (without this, ``cn`` had
-    absolute errors 2^N eps ~ 1e-13 for ``k' < 1e-8``). Near the quarter period the
-    reflection ``sn(K - x) = cd x``, ``cn(K - x) = k' sd x``, ``dn(K - x) = k' nd x`` is
-    applied at the bottom level, so ``cn`` and ``dn`` are relatively accurate even when
-    they are ``O(k')`` small (separatrix). One ``sqrt`` and one division per level and a
-    single ``sin``/``cos`` pair; ``~4`` levels for ``k^2 = 1/2``, ``~9`` for
-    ``k' = 1e-8``. ``K`` for the reduction is ``R_F(0, k'^2, 1)`` when ``|u| > K`` (the
-    Landen product has relative error ``N eps``). ``kc`` must be ``> 0`` (``k = 1`` is the
-    hyperbolic case). Measured absolute error <= 4e-16 for ``|u| <= 2K`` and all
-    ``1e-300 <= k'^2 <= 1`` (mpmath). Not recursive: numba's on-disk cache mis-handles
-    self-recursive functions (segfault / unresolved symbol on reload).
+    ``K(k)``: descending Landen (Gauss) transformation (DLMF 22.7.1, A&S 16.12) down to
+    ``k_N < 3e-9``, then back up; ``cn`` and ``dn`` rebuilt from ``sn`` where the ascent
+    would double their errors, and the quarter-period reflection at the bottom level
+    keeps them relatively accurate where they are ``O(k')``. One ``sqrt`` and one
+    division per level and one ``sin``/``cos`` pair. Measured absolute error <= 4e-16
+    for ``|u| <= 2K`` and all ``1e-300 <= k'^2 <= 1`` (mpmath). ``kc > 0``. Not
+    recursive: numba's on-disk cache mis-handles self-recursive functions (segfault /
+    unresolved symbol on reload).
 jacobi_sncndn(u, m, mc), jacobi_am(u, m, mc)
     ``sn, cn, dn`` of the unreduced argument, and the continuous amplitude
     ``am(u) = j pi + atan2(sn_r, cn_r)`` (``cn_r >= 0`` on the reduced range).

@@ -2,10 +2,15 @@
 
 The flow of ``m' = m x omega``, ``q' = (1/2) q (0, omega)``, ``omega = m / I`` (body
 angular momentum ``m`` in the principal frame, unit quaternion ``q`` scalar-first,
-body -> space) for a time ``t`` of either sign. Literature notes, section 5 (exact
-flow, with P. Leroy's corrections of Celledoni-Fasso-Safstrom-Zanna 2008) and
-section 10 (Dzhanibekov period); the orientation formula below is derived here (it
-is not FRB's frame method).
+body -> space) for a time ``t`` of either sign. The momentum follows the Jacobi
+elliptic solution of Landau & Lifshitz, *Mechanics*, 3rd ed. (1976), §37, in the form
+of Celledoni, Fassò, Säfström & Zanna, SIAM J. Sci. Comput. 30 (2008) 2084-2112, with
+P. Leroy's corrections (sign of ``lambda``, separatrix, cancellation-free ``Delta_j``
+and ``k'^2``); the orientation formula is derived in liebody's docs (it is not the
+``(m, m', m x m')`` frame method of Celledoni et al.).
+
+Derivation, formulas and accuracy study: docs/derivations.md, section "Exact free-body
+flow"; sources: docs/references.md.
 
 Kernels
 -------
@@ -23,89 +28,31 @@ exact_flow_rows(I, q, m, t, q_out, m_out)
     Many independent states, each with its own time (``I (3,)``, ``q (n, 4)``,
     ``m (n, 3)``, ``t (n,)``).
 
-Method
-------
-Regimes (``G = |m|``, ``2T = sum m_i^2 / I_i``; internally ``m`` is scaled to ``|m| = 1``
-and time to ``tau = G t``):
+Method (in brief)
+-----------------
+* ``m = 0``: nothing moves; ``m`` along a principal axis (the unstable intermediate
+  axis included): steady rotation ``q <- q exp(t omega)``.
+* spherical body (moments equal within ``SYM_RTOL``): ``q <- q exp(t m / I)``.
+* symmetric body: ``q <- q exp(t m / I_perp)``, then a rotation by
+  ``a = t m_s (1/I_s - 1/I_perp)`` about the symmetry axis ``e_s`` of both ``m`` and
+  ``q`` (they commute). Trig functions only.
+* asymmetric body (axes relabelled ``I1 < I2 < I3`` by index bookkeeping only):
+  ``m_p = s_p B_p dn(u)``, ``m_2 = -B_2 sn(u)``, ``m_o = B_o cn(u)``,
+  ``u = u0 + lambda G t``, about the *polar* axis ``p`` (1 if ``Delta_2 < 0``, 3 if
+  ``Delta_2 > 0``, ``Delta_j = |m|^2 - 2T I_j``); ``sn, cn, dn`` from a descending
+  Landen chain computed once per trajectory, the initial phase entering only through
+  the addition theorems. Orientation ``q(t) = q0 a(m0) (cos Phi/2, sin Phi/2 e)
+  a(m(t))^*`` with ``a`` the shortest-arc rotation from ``e = s_p e_p`` to ``m/|m|``
+  and ``Phi`` a third-kind integral evaluated with one Carlson ``R_J`` per call by an
+  addition theorem. The separatrix ``Delta_2 == 0`` uses ``tanh``/``sech``.
 
-* ``m = 0``: nothing moves. ``m`` along a principal axis (two components exactly 0,
-  the unstable intermediate axis included): steady rotation ``q <- q exp(t omega)``.
-* spherical body (all moments equal within ``SYM_RTOL``): ``q <- q exp(t m / I)``.
-* symmetric body (two moments equal within ``SYM_RTOL``; symmetry axis ``s``,
-  transverse moment ``I_perp``): ``q <- q exp(t m / I_perp)``, then a rotation by
-  ``a = t m_s (1/I_s - 1/I_perp)`` about body axis ``e_s`` applied to both ``m``
-  (``m <- R_s(a)^T m``) and ``q`` (``q <- q (cos a/2, sin a/2 e_s)``); the two commute.
-  Trig functions only.
-* asymmetric body: Jacobi elliptic functions. The caller's axes are relabelled
-  ``I1 < I2 < I3`` by index bookkeeping only (``m_int = (m[i1], eps m[i2], m[i3])``,
-  ``eps = -1`` for an odd permutation, which keeps the internal frame right-handed);
-  the orientation algebra is done in the caller's frame, so nothing is rounded by the
-  relabelling and a permuted problem gives the permuted answer.
-
-With ``I_jh = I_j - I_h`` and the cancellation-free (Leroy)
-``D1 = Delta_1 = m2^2 I21/I2 + m3^2 I31/I3 >= 0``,
-``D3 = -Delta_3 = m1^2 I31/I1 + m2^2 I32/I2 >= 0``,
-``Delta_2 = m3^2 I32/I3 - m1^2 I21/I1`` (``Delta_j = G^2 - 2T I_j``), let the *polar*
-axis ``p`` be 1 if ``Delta_2 < 0`` (m circulates about the smallest-moment axis), 3 if
-``Delta_2 > 0``; ``o`` is the other extreme axis, ``Dp = |Delta_p|``, ``Do = |Delta_o|``.
-Then (Landau-Lifshitz section 37; literature 5.1, both cases in one form)::
-
-    m_p = s_p B_p dn(u),  m_2 = -B_2 sn(u),  m_o = B_o cn(u),   u = u0 + lambda tau
-    k^2 = Dp |I_o2| / (|I_2p| Do),   k'^2 = |Delta_2| I31 / (Do |I_2p|)
-    B_p^2 = I_p Do / I31,  B_o^2 = I_o Dp / I31,  B_2^2 = I_2 Dp / |I_2p|
-    lambda = -s_p sqrt(|I_2p| Do / (I1 I2 I3)),   s_p = sign(m_p)   (Leroy's sign)
-
-(``k'^2`` is Leroy's complementary parameter, accurate as ``Delta_2 -> 0``.) The
-initial phase enters only through ``(sn, cn, dn)(u0) = (-m_2/B_2, m_o/B_o, |m_p|/B_p)``
-and the addition theorems, so ``F(phi0 | k^2)`` is never computed. ``sn, cn, dn`` of
-``lambda tau`` come from :func:`liebody._kernels.elliptic.landen_eval` (descending Landen
-chain, computed once per trajectory), reduced to ``[-K, K]``.
-
-Orientation. Let ``e = s_p e_p`` and ``A(m)`` the shortest-arc rotation taking ``e`` to
-``m/G``, ``a(m) = (1 + |m_p|/G, e x m/G) / sqrt(2 (1 + |m_p|/G))`` (smooth on the whole
-orbit: ``m`` never reaches ``-e`` because ``s_p m_p > 0``). Since ``Q m = L`` is fixed,
-``Q(t) = Q0 A(m0) R_e(Phi(t)) A(m(t))^T``, i.e. ``q(t) = q0 a(m0) (cos Phi/2, sin Phi/2 e)
-a(m(t))^*``, and ``omega . m = 2T`` gives, with the angular velocity of ``A``
-(``w . m_hat = -(e x m_hat) . m_hat' / (1 + e . m_hat)``) and
-``(m x m')_p = -m_p Delta_p / I_p``::
-
-    Phi' = G/I_p - Delta_p / (I_p (G + |m_p|))
-         = G/I_p - G c (1 - B_p dn u) / (1 - n sn^2 u)          (G = 1 units)
-    c = 1/I_p - 1/I_o,   n = -I_p |I_o2| / (I_o |I_2p|) < 0    (energy independent)
-
-so ``Phi(tau) = tau/I_p - (c/lambda) [P(u1) - P(u0) - B_p (psi1 - psi0)/sqrt(1 - n)]`` with
-``P(u) = int_0^u dv / (1 - n sn^2 v) = Pi(n; am u | k^2)`` and the elementary
-``psi = atan(sqrt(1 - n) tan am u)`` (continuous). ``P`` is evaluated with one
-``R_J`` per call by the addition theorem (derived from Jacobi's ``Pi(u, a)`` theorem
-with imaginary ``a``, ``n = k^2 sn^2 a``; checked to 1e-15 against mpmath)::
-
-    P(u) + P(v) - P(u + v) = kappa atan2(gamma sn u sn v sn w,
-                                         1 - n sn^2 w + n sn u sn v cn w dn w),   w = u + v
-    kappa = sqrt(-n / ((1 - n)(k^2 - n))),   gamma = sqrt(-n (1 - n)(k^2 - n))
-
-and ``P(v) = v + (n/3) sn^3 v R_J(cn^2 v, dn^2 v, 1, 1 - n sn^2 v)`` for ``|v| <= K``
-(the ``R_F`` term of the Carlson form of ``Pi`` equals ``v`` itself). With
-``lambda tau = 2 j K + v``: ``P(u1) - P(u0) = 2 j Pi(n|k^2) + P(v) - [P(u0) + P(v) -
-P(u0 + v)]``; the complete ``Pi(n|k^2)`` is needed only when ``|lambda tau| > K``.
-Compared with FRB's ``(m, m', m x m')`` frame this has no singularity where ``m' = 0``
-and needs no ``Pi(phi0)``.
-
-Separatrix (``Delta_2 == 0``, ``k = 1``): ``sn = tanh``, ``cn = dn = sech`` with
-``m_o = s_o B_o sech u`` and ``lambda = -s_p s_o sqrt(I21 D3/(I1 I2 I3))``;
-``P(u) = (u + sqrt(-n) atan(sqrt(-n) tanh u)) / (1 - n)``, ``tan am u = sinh u``.
-Near it (``0 < k' << 1``) the elliptic path is used (the Landen chain stays exact and
-``cn, dn = O(k')`` keep their relative accuracy).
-
-Accuracy (against a 34-digit mpmath Taylor integration; tests/test_exact_flow.py): the
-error is ~1e-15 (relative to ``|m|`` for ``m``, absolute for ``q`` up to sign) for
-``|omega t| ~ 10`` in every regime above, and grows only as the unavoidable phase
-error ``~|omega t| eps`` (HLW body: 3.6e-15 at ``|omega t| = 136``, 3.4e-14 at 1356).
-The reduction modulo ``2K`` uses ``K = R_F(0, k'^2, 1)`` (1 ulp) whenever
-``|lambda tau| > K``. Near the separatrix the problem itself is ill-conditioned: when
-``m0`` is far from the saddle, a relative change ``eps`` of ``m0`` changes ``k'^2`` by
-``~eps G^2 / |Delta_2|``; the kernel's error follows that conditioning (no worse).
-Cost: ~350-450 ns per :func:`exact_flow` call (3-4 steps of a 5-rotation Strang
-splitting), ~290 ns per output time of :func:`exact_flow_times`.
+Accuracy: ~1e-15 (relative to ``|m|`` for ``m``, absolute for ``q`` up to sign) at
+``|omega t| ~ 10`` in every regime, growing only as the phase error ``|omega t| eps``
+(checked against 34-digit mpmath in tests/test_exact_flow.py). Cost of one
+:func:`exact_flow` call on an asymmetric body: one Landen chain, one Carlson ``R_J``,
+two ``atan2``, two ``sin``/``cos`` pairs and ~200 flops; :func:`exact_flow_times`
+computes the plan once and then only the per-time part. Measured times:
+bench/README.md.
 """
 
 from __future__ import annotations
@@ -161,7 +108,7 @@ def _cross_axis(ax, x, y, z):
 
 @jit
 def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
-    """Per-trajectory constants: ``(head, ks, kcs)``; see the module docstring.
+    """Per-trajectory constants: ``(head, ks, kcs)``; docs/derivations.md, "Exact free-body flow".
 
     ``full`` also computes the complete ``Pi(n | k^2)`` (else left NaN and computed on
     demand, only when ``|lambda t| > K``).
@@ -430,10 +377,12 @@ def exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t):
 
     Notes
     -----
-    Formulas, regimes and accuracy: module docstring (literature section 5). Costs
-    one Landen chain (4-9 ``sqrt``), one ``sin``/``cos`` pair, one Carlson ``R_J``,
-    two ``atan2``, one more ``sin``/``cos`` pair and ~200 flops (plus one ``R_F`` and one
-    ``R_J`` when ``|lambda t| > K``); trig only for symmetric bodies.
+    Regimes and formulas: the module docstring and docs/derivations.md, section "Exact
+    free-body flow" (Landau & Lifshitz §37; Celledoni et al. 2008 with Leroy's
+    corrections). Costs one Landen chain (4-9 ``sqrt``), one ``sin``/``cos`` pair, one
+    Carlson ``R_J``, two ``atan2``, one more ``sin``/``cos`` pair and ~200 flops (plus
+    one ``R_F`` and one ``R_J`` when ``|lambda t| > K``); trig only for symmetric
+    bodies. Measured times: bench/README.md.
     """
     h, ks, kcs = _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, False)
     return _eval(h, ks, kcs, t)
@@ -474,7 +423,8 @@ def exact_flow_times(I, q0, m0, t, q_out, m_out):
 
     The constants (case, modulus, Landen chain, ``lambda``, phase, amplitudes, complete
     ``Pi``, frame quaternion) are computed once; each time is then evaluated
-    independently (no accumulation), ~70% of the cost of :func:`exact_flow`.
+    independently (no accumulation) and costs only the per-time part of
+    :func:`exact_flow` (no Landen chain). Measured times: bench/README.md.
     """
     plan = np.empty(PLAN_SIZE)
     exact_flow_plan(I[0], I[1], I[2], q0[0], q0[1], q0[2], q0[3], m0[0], m0[1], m0[2], plan)

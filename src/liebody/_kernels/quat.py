@@ -83,7 +83,10 @@ def qexp(rx, ry, rz):
 
 @jit
 def _two_square(a):
-    """``a*a`` as an exact sum ``hi + lo`` (Dekker's error-free product)."""
+    """``a*a`` as an exact sum ``hi + lo`` (Dekker's error-free product).
+
+    T. J. Dekker, Numer. Math. 18 (1971) 224-242, with Veltkamp's splitting.
+    """
     p = a * a
     c = 134217729.0 * a  # 2^27 + 1: Veltkamp split
     ah = c - (c - a)
@@ -93,7 +96,10 @@ def _two_square(a):
 
 @jit
 def _two_sum(a, b):
-    """``a + b`` as an exact sum ``s + e`` (Knuth's error-free sum)."""
+    """``a + b`` as an exact sum ``s + e`` (Knuth's error-free sum).
+
+    D. E. Knuth, *The Art of Computer Programming*, vol. 2, 3rd ed. (1997), §4.2.2.
+    """
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
@@ -258,6 +264,9 @@ def to_matrix_rows(q, out):
 @jit
 def from_matrix_rows(m, out):
     """Unit quaternions (``w >= 0``) from rotation matrices, Shepperd's method.
+
+    S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and Control 1 (1978)
+    223-224.
 
     The largest of ``4w^2, 4x^2, 4y^2, 4z^2`` (read off the trace and diagonal) is
     computed by a square root and the other three by division by it, so no
