@@ -17,16 +17,16 @@ import numpy as np
 import pytest
 
 import liebody
-from liebody.benchmarks import BENCHMARKS
-from liebody.benchmarks import _common as C
-from liebody.benchmarks import _peers as P
+from bench import BENCHMARKS
+from bench import core as C
+from bench import peers as P
 
 pytest.importorskip("matplotlib")
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    proc = subprocess.run([sys.executable, "-m", "liebody", "bench", "--quick", "--out", str(out),
+    proc = subprocess.run([sys.executable, "-m", "bench", "--quick", "--out", str(out),
                            "--no-progress"], capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return out, proc.stdout
@@ -155,7 +155,7 @@ def test_stability_finds_the_known_failure_points(quick):
 
 
 def test_cost_at_interpolates_log_log():
-    from liebody.benchmarks.work_precision import cost_at
+    from bench.work_precision import cost_at
 
     pts = [(1.0, 1e-2), (10.0, 1e-6), (100.0, 1e-10)]
     assert cost_at(pts, 1e-4) == pytest.approx(10 ** 0.5)

@@ -230,7 +230,7 @@ def reference(problem: Problem, times: np.ndarray) -> tuple[np.ndarray, np.ndarr
     q, L = fine("splitting8", 1e-3)
     q2, L2 = fine("splitting6", 5e-4)
     spread = float(state_error(problem, q, L, q2, L2).max())
-    from liebody.benchmarks._peers import scipy_solve
+    from bench.peers import scipy_solve
 
     res = scipy_solve(problem, float(times[0]), "DOP853", 1e-13, t_eval=None)
     vs_dop = float(state_error(problem, q[0], L[0], res["q"][-1], res["L"][-1])[0])

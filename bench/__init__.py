@@ -43,7 +43,7 @@ def run_all(out: str | Path = "bench/results", quick: bool = False, only=None,
     out = Path(out)
     results = {}
     for name in names:
-        module = importlib.import_module(f"liebody.benchmarks.{name}")
+        module = importlib.import_module(f"bench.{name}")
         t0 = time.perf_counter()
         print(f"--- {name} ({'quick' if quick else 'full'}) -> {out}/{name}.*", flush=True)
         summary = module.run(out, quick=quick, show_progress=show_progress)

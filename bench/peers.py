@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from liebody.benchmarks._common import Problem
+from bench.core import Problem
 
 SCIPY_METHODS = ("RK45", "DOP853")
 MUJOCO_INTEGRATORS = ("Euler", "RK4", "implicitfast")
