@@ -1,7 +1,11 @@
-"""Shared pieces of the benchmarks: problems, references, timing, output and chart style.
+"""The skeleton every benchmark fills in: command line, timing, files, charts, reports.
 
-Nothing here is imported by the library itself; the benchmarks are run by
-``python -m liebody bench`` or the scripts in ``bench/``.
+A benchmark is a :class:`Benchmark` record (see ``BENCHMARK`` at the end of each module):
+its settings, a ``run`` that measures and returns what goes into ``NAME.json``, and
+``csv``, ``plot`` and ``report`` that only read that summary. :func:`measure` does the
+rest for all of them alike: the settings and the machine in the JSON (strict: non-finite
+numbers become ``null``), one CSV, the chart with the machine at its foot, the run time.
+:func:`main` is ``python -m bench``.
 """
 
 from __future__ import annotations
@@ -10,23 +14,134 @@ import argparse
 import contextlib
 import csv
 import datetime
+import importlib
 import json
 import os
 import platform
 import statistics
 import time
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 import liebody
+from bench import BENCHMARKS
 
-# error levels at which the speed ratios are reported (issue #6)
-ERROR_LEVELS = (1e-4, 1e-6, 1e-8, 1e-10)
+#: where ``python -m bench`` writes by default (relative to the working directory)
+DEFAULT_OUT = "bench/results"
+
+
+# ------------------------------------------------------------------------- the record
+
+
+@dataclass(frozen=True)
+class Option:
+    """A command-line option of one benchmark, handed to its ``settings`` as ``dest=value``."""
+
+    flag: str
+    dest: str
+    help: str
+    type: Callable[[str], Any] = str
+    choices: tuple | None = None
+    repeat: bool = False  # may be given several times (a list)
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """One benchmark: what it measures and how its results are written and shown.
+
+    ``settings(quick, **options) -> cfg``; ``run(cfg, progress) -> results`` (the JSON
+    body; :func:`measure` adds ``machine``, ``settings`` and ``runtime_s``); then, from the
+    whole summary, ``csv(summary) -> (header, rows)``, ``plot(summary, plt) -> figure``
+    and ``report(summary) -> text``.
+    """
+
+    name: str
+    settings: Callable[..., dict]
+    run: Callable[[dict, Progress], dict]
+    csv: Callable[[dict], tuple[list[str], list[list]]]
+    plot: Callable[[dict, Any], Any]
+    report: Callable[[dict], str]
+    options: tuple[Option, ...] = ()
+
+
+def load(name: str) -> Benchmark:
+    """The :class:`Benchmark` of the module ``bench.<name>``."""
+    if name not in BENCHMARKS:
+        raise ValueError(f"unknown benchmark {name!r}; choose from {BENCHMARKS}")
+    return importlib.import_module(f"bench.{name}").BENCHMARK
+
+
+def measure(bench: Benchmark, out: str | Path, quick: bool = False,
+            show_progress: bool = True, **options) -> dict:
+    """Run one benchmark and write ``NAME.json``, ``NAME.csv`` and ``NAME.png`` into ``out``.
+
+    Returns the summary (what the JSON holds).
+    """
+    cfg = bench.settings(quick, **options)
+    t0 = time.perf_counter()
+    summary = {"machine": machine(), "settings": cfg, **bench.run(cfg, Progress(show_progress))}
+    summary["runtime_s"] = time.perf_counter() - t0
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / f"{bench.name}.json", summary)
+    write_csv(out / f"{bench.name}.csv", *bench.csv(summary))
+    finish_figure(bench.plot(summary, pyplot()), out / f"{bench.name}.png")
+    return summary
+
+
+def run_all(out: str | Path = DEFAULT_OUT, quick: bool = False, only: Iterable[str] | None = None,
+            show_progress: bool = True, options: dict | None = None) -> dict[str, dict]:
+    """Run the benchmarks (all, or those named in ``only``) and print their reports.
+
+    ``options`` maps a benchmark's name to keyword options for its ``settings``.
+    Returns each benchmark's summary by name.
+    """
+    results = {}
+    for name in only or BENCHMARKS:
+        bench = load(name)
+        t0 = time.perf_counter()
+        print(f"--- {name} ({'quick' if quick else 'full'}) -> {out}/{name}.*", flush=True)
+        summary = measure(bench, out, quick, show_progress, **(options or {}).get(name, {}))
+        print(bench.report(summary))
+        print(f"--- {name}: {time.perf_counter() - t0:.1f} s", flush=True)
+        results[name] = summary
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m bench [--quick] [--only NAME ...] [--out DIR] [--no-progress]``, plus
+    the options the benchmarks declare (they apply to that benchmark only)."""
+    parser = argparse.ArgumentParser(
+        prog="python -m bench", description="liebody's benchmarks (bench/README.md)")
+    parser.add_argument("--quick", action="store_true",
+                        help="short horizons and few points: about a minute (what CI runs)")
+    parser.add_argument("--only", metavar="NAME", action="append", choices=BENCHMARKS,
+                        help=f"run only this benchmark (repeatable): {', '.join(BENCHMARKS)}")
+    parser.add_argument("--out", metavar="DIR", default=DEFAULT_OUT,
+                        help=f"where the JSON, CSV and PNG files go (default: {DEFAULT_OUT})")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    owners = {}
+    for name in BENCHMARKS:
+        bench = load(name)
+        group = parser.add_argument_group(f"{name} options") if bench.options else None
+        for opt in bench.options:
+            group.add_argument(opt.flag, dest=opt.dest, type=opt.type, choices=opt.choices,
+                               action="append" if opt.repeat else "store", help=opt.help)
+            owners[opt.dest] = name
+    args = vars(parser.parse_args(argv))
+    options: dict[str, dict] = {}
+    for dest, name in owners.items():
+        if args[dest] is not None:
+            options.setdefault(name, {})[dest] = args[dest]
+    run_all(args["out"], quick=args["quick"], only=args["only"],
+            show_progress=not args["no_progress"], options=options)
+    return 0
 
 
 # ------------------------------------------------------------------------- the machine
@@ -101,150 +216,51 @@ def median_time(fn: Callable[[], object], repeat: int, min_batch: float = 0.02
     return statistics.median(times), times
 
 
-# ---------------------------------------------------------------------------- problems
+@contextlib.contextmanager
+def quiet_runtime_warnings():
+    """Silence the baselines' expected blow-up warnings (``failed_at`` records them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
 
 
-@dataclass(frozen=True)
-class Problem:
-    """One benchmark problem: a scene, its initial state and where it comes from.
+class Progress:
+    """Progress bars on stderr (tqdm), or silent stand-ins with the same methods."""
 
-    ``q0`` is scalar-first (body -> space) and ``L0`` body-frame, as everywhere in
-    liebody. ``h_max`` is the largest step tried; step ladders halve it.
-    """
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
 
-    key: str
-    title: str
-    scene: object
-    q0: np.ndarray
-    L0: np.ndarray
-    h_max: float
-    source: str
-    physical: bool  # MuJoCo accepts the inertia (triangle inequality)
-    extra: dict = field(default_factory=dict)
+    def __call__(self, items: Iterable | None = None, desc: str = "", total: int | None = None):
+        """A bar over ``items`` (or counting to ``total`` by ``update``)."""
+        if not self.enabled:
+            return _SilentBar(items)
+        from tqdm.auto import tqdm
 
-    @property
-    def moments(self) -> np.ndarray:
-        return self.scene.body.moments
-
-    @property
-    def free(self) -> bool:
-        return type(self.scene).__name__ == "FreeBody"
-
-    @property
-    def omega_max(self) -> float:
-        """|omega| at the start (for a free body, the largest |omega| on the orbit is
-        close to it; the benchmarks quote steps as h |omega_0|)."""
-        return float(np.linalg.norm(self.L0 / self.moments))
-
-    @property
-    def E0(self) -> float:
-        return float(energy(self, self.q0[None], self.L0[None])[0])
-
-    def methods(self) -> list[str]:
-        """Every registered time-stepping method that can integrate this scene."""
-        return [m.name for m in liebody.methods()
-                if m.family != "exact" and m.supports(self.scene)]
+        return tqdm(items, desc=desc, total=total, leave=False)
 
 
-def _problems() -> dict[str, Problem]:
-    from liebody import quaternion
+class _SilentBar:
+    def __init__(self, items: Iterable | None) -> None:
+        self._items = () if items is None else items
 
-    hlw = Problem(
-        key="hlw", title="HLW free body, I = (2, 1, 2/3)",
-        scene=liebody.FreeBody(liebody.RigidBody([2.0, 1.0, 2.0 / 3.0], check_triangle=False)),
-        q0=np.array([1.0, 0.0, 0.0, 0.0]), L0=np.array([np.cos(1.1), 0.0, np.sin(1.1)]),
-        h_max=0.4, physical=False,
-        source="Hairer-Lubich-Wanner; integrators-literature.md section 8.1")
-    asym = Problem(
-        key="asym", title="asymmetric free body, I = (0.6, 0.8, 1.0)",
-        scene=liebody.FreeBody(liebody.RigidBody([0.6, 0.8, 1.0])),
-        q0=np.array([1.0, 0.0, 0.0, 0.0]), L0=np.array([1.8, 0.4, -0.9]),
-        h_max=0.2, physical=True,
-        source="Hairer-Vilmart DMV driver; integrators-literature.md section 8.2")
-    top = Problem(
-        key="top", title="Simo-Wong fast heavy top, J = (5, 5, 1), Mgl = 20, spin 50",
-        scene=liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass=20.0, cm=[0.0, 0.0, 1.0],
-                               g=1.0),
-        q0=quaternion.exp([0.05, 0.0, 0.0]), L0=np.array([0.0, 0.0, 50.0]),
-        h_max=0.04, physical=True,
-        source="Simo & Wong (1991); integrators-literature.md section 8.3",
-        extra={"omega_nutation": 10.0})
-    return {p.key: p for p in (hlw, asym, top)}
+    def __iter__(self):
+        return iter(self._items)
+
+    def set_postfix_str(self, s: str) -> None:
+        pass
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
 
 
-@cache
-def problems() -> dict[str, Problem]:
-    """The benchmark problems by key: ``hlw``, ``asym`` (physical), ``top``."""
-    return _problems()
-
-
-def energy(problem: Problem, q: np.ndarray, L: np.ndarray) -> np.ndarray:
-    """Total energy (kinetic plus the scene's potential) of states ``(n, 4)``, ``(n, 3)``.
-
-    ``q`` need not be unit (a peer's quaternion that has drifted is used as it is in
-    the potential, as that peer's own equations would).
-    """
-    T = 0.5 * np.sum(np.asarray(L) ** 2 / problem.moments, axis=-1)
-    return T + problem.scene.potential(np.asarray(q))
-
-
-def state_error(problem: Problem, q, L, q_ref, L_ref) -> np.ndarray:
-    """Global error: the larger of ``|L - L_ref| / |L0|`` and ``min(|q - q_ref|, |q + q_ref|)``
-    (max-norms; q and -q are the same rotation)."""
-    q, L, q_ref, L_ref = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, L, q_ref, L_ref))
-    eL = np.abs(L - L_ref).max(axis=-1) / np.linalg.norm(problem.L0)
-    eq = np.minimum(np.abs(q - q_ref).max(axis=-1), np.abs(q + q_ref).max(axis=-1))
-    return np.maximum(eL, eq)
-
-
-# ---------------------------------------------------------------------------- references
-
-
-def reference(problem: Problem, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Reference states at ``times`` (each a whole multiple of the smallest).
-
-    Free bodies: the exact flow (Jacobi elliptic functions), itself checked in the tests
-    against 34-digit mpmath and against DOP853 at rtol 1e-13. The heavy top has no closed
-    form in (q, L): the reference is ``splitting8`` at ``h = 1e-3`` (Kahan–Li order 8 on
-    the exact symmetric-top flow), checked here against a second method, ``splitting6`` at
-    ``h = 5e-4``, at every time, and against scipy's DOP853 at rtol = atol = 1e-13 at the
-    first time. The largest of the two differences is returned as ``info["uncertainty"]``;
-    errors below it are not resolved.
-    """
-    times = np.asarray(times, dtype=float)
-    base = times[0]
-    idx = np.rint(times / base).astype(np.int64)
-    if not np.allclose(idx * base, times, rtol=1e-12, atol=0):
-        raise ValueError("reference times must be whole multiples of the first")
-    if problem.free:
-        tr = liebody.integrate(problem.scene, q0=problem.q0, L0=problem.L0, dt=base,
-                               steps=int(idx[-1]), method="exact")
-        return tr.q[idx], tr.L[idx], {"reference": "exact flow", "uncertainty": 1e-14}
-
-    def fine(method, h):
-        n_per = round(base / h)
-        tr = liebody.integrate(problem.scene, q0=problem.q0, L0=problem.L0, dt=base / n_per,
-                               steps=int(idx[-1]) * n_per, method=method, save_every=n_per)
-        return tr.q[idx], tr.L[idx]
-
-    q, L = fine("splitting8", 1e-3)
-    q2, L2 = fine("splitting6", 5e-4)
-    spread = float(state_error(problem, q, L, q2, L2).max())
-    from bench.peers import scipy_solve
-
-    res = scipy_solve(problem, float(times[0]), "DOP853", 1e-13, t_eval=None)
-    vs_dop = float(state_error(problem, q[0], L[0], res["q"][-1], res["L"][-1])[0])
-    info = {"reference": "splitting8 h=1e-3 (checked: splitting6 h=5e-4, DOP853 rtol 1e-13)",
-            "spread_vs_splitting6": spread, "vs_dop853_at_first_time": vs_dop,
-            "uncertainty": max(spread, vs_dop, 1e-14)}
-    return q, L, info
-
-
-# ------------------------------------------------------------------------------ output
+# ------------------------------------------------------------------------------ files
 
 
 def write_json(path: Path, data) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Strict JSON (``allow_nan=False``): non-finite floats become ``null``."""
     with open(path, "w") as fh:
         json.dump(_finite(data), fh, indent=1, default=_json_default, allow_nan=False)
         fh.write("\n")
@@ -266,15 +282,13 @@ def _finite(o):
 def _json_default(o):
     if isinstance(o, np.integer):
         return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
+    if isinstance(o, np.bool_):
+        return bool(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def write_csv(path: Path, header: list[str], rows: list[list]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """One header line, then the rows; floats to 6 significant digits."""
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -282,12 +296,15 @@ def write_csv(path: Path, header: list[str], rows: list[list]) -> None:
             w.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in r])
 
 
+# ----------------------------------------------------------------------------- charts
+
+
 def pyplot():
-    """matplotlib.pyplot with the non-interactive backend (charts need the 'plot' extra)."""
+    """matplotlib.pyplot with the non-interactive backend."""
     try:
         import matplotlib
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError("the benchmark charts need matplotlib: pip install 'liebody[plot]'"
+        raise ImportError("the benchmark charts need matplotlib: pip install -e '.[bench]'"
                           ) from exc
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -300,14 +317,22 @@ def finish_figure(fig, path: Path) -> None:
     fig.text(0.5, 0.005, "ran on: " + machine_label(), ha="center", va="bottom", fontsize=7,
              color="0.35", wrap=True)
     fig.tight_layout(rect=(0, 0.03, 1, 1))
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
+    pyplot().close(fig)
 
 
-# one colour and marker per method, the same on every chart
+def label_axes(ax, xlabel: str, ylabel: str | None = None, title: str | None = None,
+               title_size: float = 10, grid_axis: str = "both", **title_kw) -> None:
+    """Axis labels, a title and the light grid (major and minor ticks) of every chart."""
+    ax.set_xlabel(xlabel)
+    if ylabel is not None:
+        ax.set_ylabel(ylabel)
+    if title is not None:
+        ax.set_title(title, fontsize=title_size, **title_kw)
+    ax.grid(True, axis=grid_axis, which="both", alpha=0.25)
+
+
+# one colour per method, the same on every chart
 _COLOURS = {
     "splitting2": "#1f77b4", "sr2": "#aec7e8", "rattle": "#ff7f0e", "splitting4": "#2ca02c",
     "splitting6": "#98df8a", "splitting8": "#17becf", "dmv4": "#d62728", "dmv6": "#ff9896",
@@ -328,37 +353,3 @@ def style(name: str) -> dict:
     marker = "o" if fam not in (None, "baseline") else ("s" if fam == "baseline" else "^")
     return {"color": _COLOURS.get(name, "0.5"), "ls": ls, "marker": marker, "ms": 3,
             "label": name}
-
-
-@contextlib.contextmanager
-def quiet_runtime_warnings():
-    """Silence the baselines' expected blow-up warnings (``failed_at`` records them)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        yield
-
-
-def progress(iterable, desc: str, enabled: bool, total: int | None = None):
-    """A tqdm bar on stderr (or the plain iterable when disabled)."""
-    if not enabled:
-        return iterable
-    from tqdm.auto import tqdm
-
-    return tqdm(iterable, desc=desc, total=total, leave=False)
-
-
-def command_line(doc: str, run: Callable[..., dict], report: Callable[[dict], str],
-                 argv: list[str] | None, extra: Callable | None = None) -> int:
-    """The shared command line of the benchmark modules (``--quick``, ``--out``,
-    ``--no-progress``, plus what ``extra(parser)`` adds, passed on to ``run`` by name)."""
-    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
-    parser.add_argument("--quick", action="store_true",
-                        help="short horizons and few points (what CI runs)")
-    parser.add_argument("--out", default="bench/results", help="output folder")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
-    if extra is not None:
-        extra(parser)
-    args = vars(parser.parse_args(argv))
-    out, quick, show = Path(args.pop("out")), args.pop("quick"), not args.pop("no_progress")
-    print(report(run(out, quick, show, **args)))
-    return 0

@@ -17,22 +17,19 @@ is a flat line and a drift a rising one):
 * the momentum invariant: ``||L|/|L0| - 1|`` for a free body (its Casimir), and the
   vertical spatial component ``|L_z - L_z(0)| / |L0|`` for the heavy top.
 
-Run ``python -m liebody bench --only long_horizon [--quick]``.
+Run ``python -m bench --only long_horizon [--quick]``.
 """
 
 from __future__ import annotations
 
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-import liebody
-from bench import core as C
+from bench import core
 from bench import peers as P
-
-NAME = "long_horizon"
+from bench.problems import energy, problems
+from liebody import quaternion
 
 # step per problem: h |omega_0| = 0.16 (asym) and h omega_spin = 0.05 (top)
 STEPS = {"asym": 0.05, "top": 1e-3}
@@ -40,6 +37,7 @@ SCIPY_RTOL = {"DOP853": 1e-10, "RK45": 1e-8}
 
 
 def settings(quick: bool) -> dict:
+    """Steps per run, samples per grid and the peers' time budget."""
     if quick:
         return {"steps": 10**5, "slow_steps": 10**4, "samples": 400, "peer_budget": 1.0,
                 "mujoco_steps": 10**5, "problems": ["asym", "top"]}
@@ -62,25 +60,27 @@ def _grids(n: int, samples: int) -> list[tuple[int, int]]:
 def invariants(problem, t, q, L) -> dict[str, np.ndarray]:
     """The three drifts (not yet running maxima) along a sampled trajectory."""
     q, L = np.asarray(q), np.asarray(L)
-    E = C.energy(problem, q, L)
+    E = energy(problem, q, L)
     out = {"t": np.asarray(t), "energy": np.abs(E / problem.E0 - 1),
            "qnorm": np.abs(np.linalg.norm(q, axis=1) - 1)}
     L0 = np.linalg.norm(problem.L0)
     if problem.free:
         out["momentum"] = np.abs(np.linalg.norm(L, axis=1) / L0 - 1)
     else:
-        # L_space = R(q) L, with R the rotation of the (possibly non-unit) q normalised
-        qn = q / np.linalg.norm(q, axis=1, keepdims=True)
-        Lz = _rotate_z(qn, L)
+        Lz = _space_z(q, L)
         out["momentum"] = np.abs(Lz - Lz[0]) / L0
     return out
 
 
-def _rotate_z(q, v):
-    """z-component of R(q) v for unit q (rows)."""
-    w, x, y, z = q.T
-    return 2 * (x * z - w * y) * v[:, 0] + 2 * (y * z + w * x) * v[:, 1] + (
-        w * w - x * x - y * y + z * z) * v[:, 2]
+def _space_z(q: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """Vertical component of ``L_space = R(q) L``, with ``R`` the rotation of ``q / |q|``
+    (a peer's ``q`` may drift off the unit sphere); NaN where the state is not finite."""
+    norm = np.linalg.norm(q, axis=1)
+    ok = np.isfinite(norm) & (norm > 0) & np.all(np.isfinite(L), axis=1)
+    Lz = np.full(len(q), np.nan)
+    if ok.any():
+        Lz[ok] = quaternion.rotate(q[ok] / norm[ok, None], L[ok])[:, 2]
+    return Lz
 
 
 def _merge(parts: list[dict]) -> dict:
@@ -100,21 +100,20 @@ def liebody_run(problem, method: str, h: float, n: int, samples: int) -> dict:
     failed_at = None
     for steps, every in _grids(n, samples):
         t0 = time.perf_counter()
-        with C.quiet_runtime_warnings():
-            tr = liebody.integrate(problem.scene, q0=problem.q0, L0=problem.L0, dt=h,
-                                   steps=steps, method=method, save_every=every)
+        tr = problem.integrate(method, h, steps, save_every=every)
         wall = time.perf_counter() - t0  # the last (longest) run's time
         parts.append(invariants(problem, tr.t, tr.q, tr.L))
         if tr.failed_at is not None:
             failed_at = tr.failed_at
             break
     merged = _merge(parts)
-    merged.update(wall_s=wall, steps=n, h=h, failed_at=failed_at)
+    merged.update(source="liebody", wall_s=wall, steps=n, h=h, failed_at=failed_at)
     return merged
 
 
 def scipy_run(problem, method: str, budget: float, T_max: float, samples: int) -> dict:
     rtol = SCIPY_RTOL[method]
+    P.scipy_solve(problem, 1.0, method, rtol)  # compiles the RHS (or loads it) untimed
     t0 = time.perf_counter()
     P.scipy_solve(problem, 10.0, method, rtol)
     per_time = (time.perf_counter() - t0) / 10.0
@@ -124,7 +123,8 @@ def scipy_run(problem, method: str, budget: float, T_max: float, samples: int) -
     t0 = time.perf_counter()
     res = P.scipy_solve(problem, T, method, rtol, t_eval=t_eval)
     out = invariants(problem, res["t"], res["q"], res["L"])
-    out.update(wall_s=time.perf_counter() - t0, steps=None, h=None, rtol=rtol, failed_at=None)
+    out.update(source="scipy", wall_s=time.perf_counter() - t0, steps=None, h=None, rtol=rtol,
+               failed_at=None)
     return out
 
 
@@ -153,58 +153,59 @@ def mujoco_run(problem, integrator: str, h: float, n: int, samples: int) -> dict
     out = _merge(parts)
     bad = ~np.isfinite(out["energy"])
     failed_at = float(out["t"][np.argmax(bad)]) if bad.any() else None
-    out.update(wall_s=time.perf_counter() - t0, steps=n, h=h, failed_at=failed_at)
+    out.update(source="MuJoCo", wall_s=time.perf_counter() - t0, steps=n, h=h,
+               failed_at=failed_at)
     return out
 
 
-def _one(source: str, m: str, pb, h: float, cfg: dict, T_max: float) -> tuple[dict, str]:
+def _one(source: str, m: str, pb, h: float, cfg: dict, T_max: float) -> dict:
     if source == "liebody":
         n = cfg["slow_steps"] if m in SLOW else cfg["steps"]
-        return liebody_run(pb, m, h, n, cfg["samples"]), m
+        return liebody_run(pb, m, h, n, cfg["samples"])
     if source == "scipy":
-        return scipy_run(pb, m, cfg["peer_budget"], T_max, cfg["samples"]), f"scipy {m}"
-    return mujoco_run(pb, m, h, cfg["mujoco_steps"], cfg["samples"]), f"MuJoCo {m}"
+        return scipy_run(pb, m, cfg["peer_budget"], T_max, cfg["samples"])
+    return mujoco_run(pb, m, h, cfg["mujoco_steps"], cfg["samples"])
 
 
-def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
-    cfg = settings(quick)
-    out = Path(out)
-    summary: dict = {"machine": C.machine(), "settings": cfg, "problems": {}}
+def run(cfg: dict, progress: core.Progress) -> dict:
+    """Every method and peer on each problem: curves (envelopes) and first/last deciles."""
+    out: dict = {"problems": {}, "mujoco_warnings": {}}
     have_mujoco = P.mujoco_available()
-    csv_rows = []
     for key in cfg["problems"]:
-        pb = C.problems()[key]
+        pb = problems()[key]
         h = STEPS[key]
-        jobs = [("liebody", m) for m in pb.methods()]
-        jobs += [("scipy", m) for m in P.SCIPY_METHODS]
-        if have_mujoco and pb.physical:
-            jobs += [("MuJoCo", m) for m in P.MUJOCO_INTEGRATORS]
+        jobs = P.contenders(pb, have_mujoco)
         T_max = cfg["steps"] * h
         curves = {}
-        for source, m in C.progress(jobs, f"long horizon {key}", show_progress):
+        for source, m in progress(jobs, f"long horizon {key}"):
             with np.errstate(over="ignore", invalid="ignore"):
-                res, label = _one(source, m, pb, h, cfg, T_max)
+                res = _one(source, m, pb, h, cfg, T_max)
+            label = P.label(source, m)
             curves[label] = res
-            finite = np.isfinite(res["energy"])
-            csv_rows.append([key, label, source, res["h"], res.get("rtol"), res["steps"],
-                             float(res["t"][-1]), res["wall_s"],
-                             float(np.max(res["energy"][finite], initial=0)),
-                             float(np.max(res["qnorm"][finite], initial=0)),
-                             float(np.max(res["momentum"][finite], initial=0)),
-                             res["failed_at"]])
-        summary["problems"][key] = {
+            if source == "MuJoCo":
+                out["mujoco_warnings"][f"{key} {label}"] = P.MUJOCO_WARNINGS.take()
+        out["problems"][key] = {
             "title": pb.title, "h": h, "h_omega0": h * pb.omega_max,
             "momentum_invariant": "|L|" if pb.free else "L_z (space)",
             "curves": {label: envelope(res) for label, res in curves.items()},
             "final": {label: _final(res) for label, res in curves.items()},
         }
-    C.write_json(out / f"{NAME}.json", summary)
-    C.write_csv(out / f"{NAME}.csv",
-                ["problem", "method", "source", "h", "rtol", "steps", "t_end", "wall_s",
-                 "max_energy_error", "max_qnorm_error", "max_momentum_drift", "failed_at"],
-                csv_rows)
-    plot(summary, out / f"{NAME}.png")
-    return summary
+    return out
+
+
+def csv_table(summary: dict) -> tuple[list[str], list[list]]:
+    """One row per run: where it went, how long it took, the worst finite values."""
+    header = ["problem", "method", "source", "h", "rtol", "steps", "t_end", "wall_s",
+              "max_energy_error", "max_qnorm_error", "max_momentum_drift", "failed_at"]
+    rows = []
+    for key, info in summary["problems"].items():
+        for label, c in info["curves"].items():
+            f = info["final"][label]
+            worst = [f[k]["max"] if np.isfinite(f[k]["max"]) else 0.0
+                     for k in ("energy", "qnorm", "momentum")]
+            rows.append([key, label, c["source"], c["h"], c.get("rtol"), c["steps"],
+                         f["t_end"], c["wall_s"], *worst, f["failed_at"]])
+    return header, rows
 
 
 def envelope(res: dict, points: int = 400) -> dict:
@@ -245,14 +246,16 @@ def _final(res: dict) -> dict:
     return out
 
 
-def plot(summary: dict, path: Path) -> None:
-    plt = C.pyplot()
+def plot(summary: dict, plt):
+    """Energy error, ``||q| - 1|`` and momentum drift against time, one row per problem."""
     keys = list(summary["problems"])
     fig, axes = plt.subplots(len(keys), 3, figsize=(16, 4.8 * len(keys)), squeeze=False)
-    ylabels = {"energy": "relative energy error (worst so far)",
-               "qnorm": "||q| - 1| (worst so far)"}
     for i, key in enumerate(keys):
         info = summary["problems"][key]
+        momentum = "||L|/|L0| - 1|" if info["momentum_invariant"] == "|L|" else (
+            "|L_z - L_z(0)| / |L0|")
+        ylabels = {"energy": "relative energy error (worst so far)",
+                   "qnorm": "||q| - 1| (worst so far)", "momentum": f"{momentum} (worst so far)"}
         for j, quantity in enumerate(("energy", "qnorm", "momentum")):
             ax = axes[i, j]
             for label, res in info["curves"].items():
@@ -262,23 +265,17 @@ def plot(summary: dict, path: Path) -> None:
                 if not sel.any():
                     continue
                 y = np.maximum(v[sel], 1e-17)
-                st = C.style(label)
+                st = core.style(label)
                 st.pop("marker")
                 ax.loglog(t[sel], y, **st, lw=1.2)
-            ax.set_xlabel("time t [time units of the problem]")
-            if quantity == "momentum":
-                ax.set_ylabel(("||L|/|L0| - 1|" if info["momentum_invariant"] == "|L|"
-                               else "|L_z - L_z(0)| / |L0|") + " (worst so far)")
-            else:
-                ax.set_ylabel(ylabels[quantity])
             ax.set_ylim(1e-17, 1e3)
-            ax.set_title(f"{info['title']}\nh = {info['h']:g} (h|omega0| = "
-                         f"{info['h_omega0']:.3g})", fontsize=9)
-            ax.grid(True, which="both", alpha=0.25)
+            core.label_axes(ax, "time t [time units of the problem]", ylabels[quantity],
+                            f"{info['title']}\nh = {info['h']:g} (h|omega0| = "
+                            f"{info['h_omega0']:.3g})", title_size=9)
             if j == 0:
                 ax.legend(fontsize=7, ncol=2, loc="upper left")
     fig.suptitle("Long horizons: bounded errors for the geometric methods, drift for the rest")
-    C.finish_figure(fig, path)
+    return fig
 
 
 def report(summary: dict) -> str:
@@ -296,10 +293,5 @@ def report(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Command line: measure, write the files and print :func:`report`."""
-    return C.command_line(__doc__, run, report, argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+BENCHMARK = core.Benchmark(name="long_horizon", settings=settings, run=run, csv=csv_table,
+                           plot=plot, report=report)

@@ -62,25 +62,21 @@ Outputs: ``stability.json`` (sweeps, failure points, resonance peaks, gimbal-loc
 errors, the settings and the machine), ``stability.csv`` (one row per run) and
 ``stability.png``.
 
-Run ``python -m liebody bench --only stability [--quick]`` or
-``python -m liebody.benchmarks.stability [--quick] [--out DIR]``.
+Run ``python -m bench --only stability [--quick]``.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
 import liebody
-from liebody import euler, quaternion
-from bench import core as C
-
-NAME = "stability"
+from bench import core
+from bench.problems import Problem, energy, problems
+from liebody import analysis, euler, quaternion
 
 #: relative energy error above which the energy no longer counts as bounded
 E_TOL = 0.05
@@ -136,17 +132,12 @@ def definitions() -> dict:
 # ------------------------------------------------------------------------------- runs
 
 
-def _rel_energy(problem: C.Problem, q: np.ndarray, L: np.ndarray) -> np.ndarray:
+def _rel_energy(problem: Problem, q: np.ndarray, L: np.ndarray) -> np.ndarray:
     """``|E/E0 - 1|`` with the potential taken at ``q/|q|`` (the rotation a baseline's
     drifting quaternion stands for); non-finite where ``q`` vanished or overflowed."""
     with np.errstate(all="ignore"):
-        kinetic = 0.5 * np.sum(L * L / problem.moments, axis=-1)
-        if problem.free:
-            energy = kinetic
-        else:
-            nq = np.linalg.norm(q, axis=-1, keepdims=True)
-            energy = kinetic + problem.scene.potential(q / nq)
-        return np.abs(energy / problem.E0 - 1.0)
+        rotation = q / np.linalg.norm(q, axis=-1, keepdims=True)
+        return np.abs(energy(problem, rotation, L) / problem.E0 - 1.0)
 
 
 def _grows(e: np.ndarray) -> tuple[bool, float]:
@@ -157,7 +148,7 @@ def _grows(e: np.ndarray) -> tuple[bool, float]:
     return bool(last > GROWTH_FACTOR * first and last > GROWTH_FLOOR), ratio
 
 
-def run_case(problem: C.Problem, method: str, x: float, h: float, steps: int) -> dict:
+def run_case(problem: Problem, method: str, x: float, h: float, steps: int) -> dict:
     """One run: its diagnostics and the verdict of both criteria.
 
     Parameters
@@ -185,9 +176,7 @@ def run_case(problem: C.Problem, method: str, x: float, h: float, steps: int) ->
            "min_q_norm": None, "max_q_norm": None, "max_L_norm_drift": None, "growth": None,
            "energy_bounded": False, "qnorm_bounded": False, "reason": ""}
     try:
-        with C.quiet_runtime_warnings():
-            tr = liebody.integrate(problem.scene, q0=problem.q0, L0=problem.L0, dt=h,
-                                   steps=steps, method=method)
+        tr = problem.integrate(method, h, steps)
     except liebody.ConvergenceError:
         row.update(status="ConvergenceError", reason="implicit step has no solution")
         return row
@@ -242,13 +231,14 @@ def failure_point(rows: list[dict], key: str, evaluate: Callable[[float], dict],
         ``x`` (grid point, or ``None``), ``x_refined``, ``bracket`` ``[last pass, first
         fail]``, ``reason``, ``status`` and ``max_rel_energy_error`` of the refined failing run,
         ``pass_max_rel_energy_error`` of the last passing one, ``recovers_at`` (swept
-        ``x`` above the failure point that pass) and ``extra`` (the bisection's rows).
+        ``x`` above the failure point that pass) and ``bisection`` (the bisection's
+        runs, as :func:`columns`).
     """
     first = next((i for i, r in enumerate(rows) if not r[key]), None)
     if first is None:
         return {"x": None, "x_refined": None, "bracket": None, "reason": "", "status": None,
                 "max_rel_energy_error": None, "pass_max_rel_energy_error": None,
-                "recovers_at": [], "extra": []}
+                "recovers_at": [], "bisection": columns([])}
     fail_row = rows[first]
     pass_row = rows[first - 1] if first > 0 else None
     extra = []
@@ -271,12 +261,8 @@ def failure_point(rows: list[dict], key: str, evaluate: Callable[[float], dict],
             "max_rel_energy_error": fail_row["max_rel_energy_error"],
             "pass_max_rel_energy_error": (None if pass_row is None
                                           else pass_row["max_rel_energy_error"]),
-            "recovers_at": [r["x"] for r in rows[first + 1:] if r[key]], "extra": extra}
-
-
-def _strip(fp: dict) -> dict:
-    """A failure point without the bisection rows (they go to the CSV)."""
-    return {k: v for k, v in fp.items() if k != "extra"}
+            "recovers_at": [r["x"] for r in rows[first + 1:] if r[key]],
+            "bisection": columns(extra)}
 
 
 _COLUMNS = ("x", "h", "steps", "T", "status", "max_rel_energy_error", "max_q_norm_drift",
@@ -297,35 +283,22 @@ def rows_of(sweep: dict) -> list[dict]:
 # ------------------------------------------------------------------ (a) free-body sweep
 
 
-def momentum_period(problem: C.Problem) -> float:
-    """Period of the body-frame momentum ``L(t)`` of a free asymmetric body.
+def momentum_period(problem: Problem) -> float:
+    """Period of the body-frame momentum ``L(t)`` of a free body.
 
-    ``4 K(m) / lambda`` with the Jacobi parameter ``m`` and frequency ``lambda`` of the
-    polhode (Landau & Lifshitz, Mechanics, section 37; the axes are relabelled so that
-    the motion circulates about the third one); ``2 pi / |omega_0|`` for a symmetric
-    body or a steady rotation.
+    For an asymmetric body, :func:`liebody.analysis.flip_period` (Landau & Lifshitz,
+    *Mechanics*, §37: ``4 K(m) / nu``; ``L`` flips every half period); for a symmetric
+    body or a steady rotation (no flips), ``2 pi / |omega_0|``.
     """
-    from scipy.special import ellipk
-
-    I = np.asarray(problem.moments, dtype=float)
-    L = np.asarray(problem.L0, dtype=float)
-    order = np.argsort(I)
-    I, L = I[order], L[order]
-    L2 = float(L @ L)
-    twoE = float(np.sum(L * L / I))
-    if L2 < twoE * I[1]:  # circulates about the smallest-moment axis: swap roles 1 <-> 3
-        I, L = I[::-1], L[::-1]
-    num = (I[2] - I[1]) * (L2 - twoE * I[0])
-    m = (I[1] - I[0]) * (twoE * I[2] - L2) / num if num > 0 else -1.0
-    if not 0.0 <= m < 1.0:
+    try:
+        return analysis.flip_period(problem.moments, problem.L0)
+    except ValueError:
         return 2.0 * math.pi / problem.omega_max
-    lam = math.sqrt(num / (I[0] * I[1] * I[2]))
-    return 4.0 * float(ellipk(m)) / lam
 
 
 def free_body_sweep(cfg: dict, bar) -> dict:
     """Panel (a): every method on the free body across ``x = h |omega_0|``."""
-    pb = C.problems()[cfg["free_problem"]]
+    pb = problems()[cfg["free_problem"]]
     period = momentum_period(pb)
     w0 = pb.omega_max
     xs = np.geomspace(*cfg["free_x"], cfg["free_points"])
@@ -335,9 +308,8 @@ def free_body_sweep(cfg: dict, bar) -> dict:
         return max(cfg["free_min_steps"], math.ceil(cfg["free_min_periods"] * period / h))
 
     L2 = float(pb.L0 @ pb.L0)
-    exact = liebody.integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=period / 2000, steps=2000,
-                              method="exact")
-    w = np.linalg.norm(exact.omega, axis=-1)
+    exact = pb.integrate("exact", period / 2000, 2000)
+    w = np.linalg.norm(exact.L / pb.moments, axis=-1)
     out = {"problem": pb.key, "title": pb.title, "omega0": w0, "E0": pb.E0,
            "momentum_period": period, "x_name": "h |omega_0|",
            "omega_range_on_orbit": [float(w.min()), float(w.max())],
@@ -393,7 +365,7 @@ def resonance_peak(rows: list[dict]) -> dict:
 
 def top_sweep(cfg: dict, bar) -> dict:
     """Panel (b): the torqued methods on the fast heavy top across ``x = h omega_nut``."""
-    pb = C.problems()[cfg["top_problem"]]
+    pb = problems()[cfg["top_problem"]]
     w_nut = float(pb.extra["omega_nutation"])
     T = cfg["top_T"]
     xs = top_grid(cfg)
@@ -514,69 +486,46 @@ def gimbal_sweep(cfg: dict, bar) -> dict:
 # ----------------------------------------------------------------------------- driver
 
 
-class _NoBar:
-    def set_postfix_str(self, s: str) -> None:
-        pass
-
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
-
-
-def _bar(total: int, desc: str, enabled: bool):
-    if not enabled:
-        return _NoBar()
-    return C.progress(None, desc, True, total=total)
-
-
-def run(out: Path, quick: bool = False, show_progress: bool = True) -> dict:
-    """Run the three experiments, write JSON, CSV and chart, return the summary."""
-    cfg = settings(quick)
-    out = Path(out)
-    t_start = time.perf_counter()
-    summary: dict = {"machine": C.machine(), "settings": cfg, "definitions": definitions()}
-    n_jobs = (len(C.problems()[cfg["free_problem"]].methods())
-              + len(C.problems()[cfg["top_problem"]].methods()) + len(cfg["gimbal_h"]))
-    bar = _bar(n_jobs, "stability", show_progress)
+def run(cfg: dict, progress: core.Progress) -> dict:
+    """The three experiments."""
+    n_jobs = (len(problems()[cfg["free_problem"]].methods())
+              + len(problems()[cfg["top_problem"]].methods()) + len(cfg["gimbal_h"]))
+    bar = progress(None, "stability", total=n_jobs)
     try:
-        summary["free_body"] = free_body_sweep(cfg, bar)
-        summary["heavy_top"] = top_sweep(cfg, bar)
-        summary["gimbal_lock"] = gimbal_sweep(cfg, bar)
+        return {"definitions": definitions(), "free_body": free_body_sweep(cfg, bar),
+                "heavy_top": top_sweep(cfg, bar), "gimbal_lock": gimbal_sweep(cfg, bar)}
     finally:
         bar.close()
-    summary["wall_s"] = time.perf_counter() - t_start
 
-    csv_rows = []
+
+_CSV_HEADER = ["panel", "problem", "method", "kind", "x_name", "x", "h", "steps", "T", "status",
+               "max_rel_energy_error", "max_q_norm_drift", "max_L_norm_drift",
+               "energy_bounded", "qnorm_bounded", "orientation_error"]
+
+
+def csv_table(summary: dict) -> tuple[list[str], list[list]]:
+    """One row per run: the sweeps, the bisections, the gimbal-lock errors."""
+    rows = []
     for panel in ("free_body", "heavy_top"):
         info = summary[panel]
         for m, d in info["methods"].items():
-            extra = [(r, "bisection") for fp in ("energy_failure", "qnorm_failure")
-                     if fp in d for r in d[fp]["extra"]]
-            for r, kind in [(r, "sweep") for r in rows_of(d["sweep"])] + extra:
-                csv_rows.append([panel, info["problem"], m, kind, info["x_name"], r["x"], r["h"],
-                                 r["steps"], r["T"], r["status"], r["max_rel_energy_error"],
-                                 r["max_q_norm_drift"], r["max_L_norm_drift"],
-                                 r["energy_bounded"], r["qnorm_bounded"], None])
-            for fp in ("energy_failure", "qnorm_failure"):
-                if fp in d:
-                    d[fp] = _strip(d[fp])
+            runs = [(r, "sweep") for r in rows_of(d["sweep"])]
+            runs += [(r, "bisection") for fp in ("energy_failure", "qnorm_failure") if fp in d
+                     for r in rows_of(d[fp]["bisection"])]
+            for r, kind in runs:
+                rows.append([panel, info["problem"], m, kind, info["x_name"], r["x"], r["h"],
+                             r["steps"], r["T"], r["status"], r["max_rel_energy_error"],
+                             r["max_q_norm_drift"], r["max_L_norm_drift"],
+                             r["energy_bounded"], r["qnorm_bounded"], None])
     g = summary["gimbal_lock"]
     for run_ in g["runs"]:
         for label in ("euler_angles_rk4", "quaternion_rk4"):
             for th, err in zip(g["theta_min"], run_[label], strict=True):
-                csv_rows.append(["gimbal_lock", "symmetric free body", label, "sweep",
-                                 g["x_name"], th, run_["h"], run_["steps"], run_["T"], "ok"
-                                 if err is not None else "non-finite", None, None, None, None,
-                                 None, err])
-    C.write_json(out / f"{NAME}.json", summary)
-    C.write_csv(out / f"{NAME}.csv",
-                ["panel", "problem", "method", "kind", "x_name", "x", "h", "steps", "T",
-                 "status", "max_rel_energy_error", "max_q_norm_drift", "max_L_norm_drift",
-                 "energy_bounded", "qnorm_bounded", "orientation_error"], csv_rows)
-    plot(summary, out / f"{NAME}.png")
-    return summary
+                rows.append(["gimbal_lock", "symmetric free body", label, "sweep", g["x_name"],
+                             th, run_["h"], run_["steps"], run_["T"],
+                             "ok" if err is not None else "non-finite", None, None, None, None,
+                             None, err])
+    return _CSV_HEADER, rows
 
 
 # ------------------------------------------------------------------------------ chart
@@ -605,11 +554,12 @@ def _marker_y(fp: dict) -> float:
 
 
 _RAISED = ("ConvergenceError", "ValueError")
+_E_LABEL = "max |E/E₀ − 1|"
 
 
 def _sweep_panel(ax, info: dict, with_q: bool, label_at: float | None) -> None:
     for m, d in info["methods"].items():
-        st = C.style(m)
+        st = core.style(m)
         x, y = _energy_curve(rows_of(d["sweep"]))
         ax.loglog(x, y, lw=1.2, **(st | {"ms": 2.5}))
         fe = d["energy_failure"]
@@ -628,11 +578,10 @@ def _sweep_panel(ax, info: dict, with_q: bool, label_at: float | None) -> None:
     ax.grid(True, which="both", alpha=0.25)
 
 
-def plot(summary: dict, path: Path) -> None:
+def plot(summary: dict, plt):
     """The three panels in one figure ((b) with a linear zoom on the resonance)."""
     from matplotlib.lines import Line2D
 
-    plt = C.pyplot()
     fig = plt.figure(figsize=(16, 12.5))
     gs = fig.add_gridspec(2, 3, height_ratios=[1.1, 1.0], width_ratios=[1.25, 0.75, 1.1])
     ax_a = fig.add_subplot(gs[0, :])
@@ -647,12 +596,12 @@ def plot(summary: dict, path: Path) -> None:
     ax_a.axvline(RK4_Q_LIMIT, color="k", lw=0.8, ls=":")
     ax_a.text(RK4_Q_LIMIT, 1e-15, " RK4 |q| limit\n h|ω| = 4√2", fontsize=7, va="bottom")
     n_min = min(n for d in fb["methods"].values() for n in d["sweep"]["steps"])
-    ax_a.set_xlabel("h |ω₀|  (step × initial angular speed) [rad]")
-    ax_a.set_ylabel("max |E/E₀ − 1| over the run [–]")
-    ax_a.set_title(f"(a) {fb['title']}: max relative energy error, every method "
-                   f"(≥ {n_min} steps and ≥ {summary['settings']['free_min_periods']} "
-                   f"periods of L(t) per run; ≥ {_CEIL:g} or non-finite drawn at {_CEIL:g}; "
-                   "a line that stops: implicit step has no solution)", fontsize=9.5)
+    core.label_axes(ax_a, "h |ω₀|  (step × initial angular speed) [rad]",
+                    _E_LABEL + " over the run [–]",
+                    f"(a) {fb['title']}: max relative energy error, every method "
+                    f"(≥ {n_min} steps and ≥ {summary['settings']['free_min_periods']} "
+                    f"periods of L(t) per run; ≥ {_CEIL:g} or non-finite drawn at {_CEIL:g}; "
+                    "a line that stops: implicit step has no solution)", title_size=9.5)
     handles, labels = ax_a.get_legend_handles_labels()
     handles += [Line2D([], [], marker="*", ms=11, color="0.6", mec="k", ls="none"),
                 Line2D([], [], marker="v", ms=8, color="0.6", mec="k", ls="none")]
@@ -666,17 +615,17 @@ def plot(summary: dict, path: Path) -> None:
     _sweep_panel(ax_b, tp, with_q=False, label_at=None)
     ax_b.set_ylim(_FLOOR * 0.5, 1e6)
     ax_b.axvline(2 * math.pi, color="k", lw=0.8, ls=":")
-    ax_b.set_xlabel("h ω_nut  (step × nutation frequency) [rad]")
-    ax_b.set_ylabel("max |E/E₀ − 1| over the run [–]")
-    ax_b.set_title(f"(b) {tp['title']}\nmax relative energy error over T = {tp['T']:g}, "
-                   f"ω_nut = {tp['omega_nutation']:g} rad/s (★: energy no longer bounded)",
-                   fontsize=9.5)
+    core.label_axes(ax_b, "h ω_nut  (step × nutation frequency) [rad]",
+                    _E_LABEL + " over the run [–]",
+                    f"(b) {tp['title']}\nmax relative energy error over T = {tp['T']:g}, "
+                    f"ω_nut = {tp['omega_nutation']:g} rad/s (★: energy no longer bounded)",
+                    title_size=9.5)
     ax_b.legend(fontsize=7, ncol=3, loc="upper center", columnspacing=0.8)
     lo, hi = summary["settings"]["top_fine"][:2]
     for m, d in tp["methods"].items():
         if liebody.methods()[m].family == "baseline":
             continue
-        st = C.style(m)
+        st = core.style(m)
         x, y = _energy_curve(rows_of(d["sweep"]))
         keep = (x >= lo - 1e-9) & (x <= hi + 1e-9)
         if np.all(np.isnan(y[keep])):
@@ -690,12 +639,10 @@ def plot(summary: dict, path: Path) -> None:
     ax_z.text(2 * math.pi, 0.3, "h ω_nut = 2π ", fontsize=8, rotation=90, ha="right",
               va="center", transform=ax_z.get_xaxis_transform())
     ax_z.set_xlim(lo, hi)
-    ax_z.set_xlabel("h ω_nut [rad] (linear)")
-    ax_z.set_ylabel("max |E/E₀ − 1| [–]")
-    ax_z.set_title("(b) zoom: step-size resonance of the\nkick–drift splittings (○: peak)",
-                   fontsize=9.5)
+    core.label_axes(ax_z, "h ω_nut [rad] (linear)", _E_LABEL + " [–]",
+                    "(b) zoom: step-size resonance of the\nkick–drift splittings (○: peak)",
+                    title_size=9.5)
     ax_z.legend(fontsize=7, loc="lower right")
-    ax_z.grid(True, which="both", alpha=0.25)
 
     # (c) gimbal lock
     g = summary["gimbal_lock"]
@@ -714,16 +661,15 @@ def plot(summary: dict, path: Path) -> None:
         ax_c.loglog(guide, 30 * first * (guide / th[0]) ** -3, color="0.4", lw=1.0, ls=":",
                     label="slope guide ∝ θ_min⁻³")
     ax_c.invert_xaxis()
-    ax_c.set_xlabel("closest approach to gimbal lock θ_min (z-x-z) [rad]")
-    ax_c.set_ylabel("orientation error at T, angle to the exact rotation [rad]")
-    ax_c.set_title(f"(c) Euler angles near gimbal lock: free symmetric body "
-                   f"I = {tuple(g['moments'])},\nT = {g['runs'][0]['T']:.4g} "
-                   f"(two close approaches), same RK4 and step for both", fontsize=9.5)
+    core.label_axes(ax_c, "closest approach to gimbal lock θ_min (z-x-z) [rad]",
+                    "orientation error at T, angle to the exact rotation [rad]",
+                    f"(c) Euler angles near gimbal lock: free symmetric body "
+                    f"I = {tuple(g['moments'])},\nT = {g['runs'][0]['T']:.4g} "
+                    f"(two close approaches), same RK4 and step for both", title_size=9.5)
     ax_c.legend(fontsize=7.5, loc="lower right", bbox_to_anchor=(1.0, 0.08))
-    ax_c.grid(True, which="both", alpha=0.25)
 
     fig.suptitle("Stability: where each method fails", fontsize=13)
-    C.finish_figure(fig, path)
+    return fig
 
 
 # ----------------------------------------------------------------------------- report
@@ -781,14 +727,8 @@ def report(summary: dict) -> str:
                               strict=True):
             lines.append(f"     theta_min = {th:8.2e}: Euler angles {_fmt(ea, '9.2e')}, "
                          f"quaternions {eq:9.2e}")
-    lines.append(f"(wall time {summary['wall_s']:.1f} s)")
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Command line: measure, write the files and print :func:`report`."""
-    return C.command_line(__doc__, run, report, argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+BENCHMARK = core.Benchmark(name="stability", settings=settings, run=run, csv=csv_table,
+                           plot=plot, report=report)

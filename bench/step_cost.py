@@ -2,29 +2,30 @@
 
 Three measurements, one run:
 
-* **ns per step.** A small C implementation of the symmetric 5-rotation splitting (the
-  same algorithm and axis ordering that ``integrate(method="splitting2")`` uses: exact
-  axis sub-flows applied to ``m`` and ``q``, end rotations merged) is compiled with the
-  system's ``gcc -O3`` and timed in the same process, on the same body and state, as
+* **ns per step.** A small C implementation of the symmetric 5-rotation splitting
+  (``bench/c/splitting2.c``: the same algorithm and axis ordering that
+  ``integrate(method="splitting2")`` uses, exact axis sub-flows applied to ``m`` and
+  ``q``, end rotations merged) is compiled with the system's ``gcc -O3`` into a
+  temporary folder and timed in the same process, on the same body and state, as
   every registered liebody method run through the public ``integrate()``, on the HLW
   free body and (for the methods that support it) on the Simo–Wong heavy top. Every
   time is the median of repeated runs (min and max in the JSON); the ratio to C is
   reported. At the end, liebody's ``splitting2`` and the C code are checked to agree
   (bit for bit, or to about 1e-15), so the two timings are of the same computation.
   Without a C compiler the C column is skipped with a note.
-* **Compile time.** In two fresh processes sharing a new, empty ``NUMBA_CACHE_DIR``
-  (the user's cache is not touched): the first ``integrate()`` call of every method, in
-  registry order, on the free body and on the heavy top, first with the cache empty
-  (numba compiles and writes the cache), then with it full (numba loads it).
-* **Import time.** Medians over fresh processes of ``import liebody``,
-  ``import liebody; liebody.integrate`` (the lazy attribute that loads numba) and the
-  first ``integrate()`` call with a warm cache, less a bare ``python -c pass``.
+* **Compile time.** In two fresh processes (``python -m bench.child first_calls``)
+  sharing a new, empty ``NUMBA_CACHE_DIR`` (the user's cache is not touched): the first
+  ``integrate()`` call of every method, in registry order, on the free body and on the
+  heavy top, first with the cache empty (numba compiles and writes the cache), then
+  with it full (numba loads it).
+* **Import time.** Medians over fresh processes (:mod:`bench.child`) of
+  ``import liebody``, ``import liebody; liebody.integrate`` (the lazy attribute that
+  loads numba) and the first ``integrate()`` call with a warm cache, less an empty child.
 
-Target (issue #3): ``splitting2`` through ``integrate()`` within 1.25x of the C code.
+Target: ``splitting2`` through ``integrate()`` within 1.25x of the C code.
 Timings are never asserted in the tests; this module is where they are measured.
 
-Run ``python -m liebody.benchmarks.step_cost [--quick] [--steps N]`` or
-``python bench/step_cost.py``.
+Run ``python -m bench --only step_cost [--quick] [--steps N]``.
 """
 
 from __future__ import annotations
@@ -43,125 +44,50 @@ from pathlib import Path
 import numpy as np
 
 import liebody
-from liebody import registry
-from bench import core as C
+from bench import core
+from bench.problems import Problem, method_names, problems
 
-NAME = "step_cost"
+TARGET_RATIO = 1.25  # target: splitting2 within 1.25x of the C code
 
-TARGET_RATIO = 1.25  # issue #3: splitting2 within 1.25x of the C code
+#: the C reference, built by :func:`build_c`
+C_SOURCE = Path(__file__).resolve().parent / "c" / "splitting2.c"
+#: the folder that holds the ``bench`` package (the children import it from there)
+BENCH_ROOT = Path(__file__).resolve().parent.parent
 
-C_SOURCE = r"""
-#include <math.h>
-
-/* exact flow of T_k = m_k^2/(2 I_k) for time tau: m <- R_k(theta)^T m, q <- q (c, s e_k) */
-static inline void axis_flow(double *q, double *m, int k, double rate, double tau) {
-    double half = 0.5 * tau * rate * m[k];
-    double s2 = sin(half), c2 = cos(half);
-    double c = 1.0 - 2.0 * s2 * s2, s = 2.0 * s2 * c2;
-    int i = (k + 1) % 3, j = (k + 2) % 3;
-    double mi = m[i], mj = m[j];
-    m[i] = c * mi + s * mj;
-    m[j] = c * mj - s * mi;
-    double w = q[0], x = q[1], y = q[2], z = q[3];
-    if (k == 0) {
-        q[0] = c2 * w - s2 * x; q[1] = c2 * x + s2 * w;
-        q[2] = c2 * y + s2 * z; q[3] = c2 * z - s2 * y;
-    } else if (k == 1) {
-        q[0] = c2 * w - s2 * y; q[1] = c2 * x - s2 * z;
-        q[2] = c2 * y + s2 * w; q[3] = c2 * z + s2 * x;
-    } else {
-        q[0] = c2 * w - s2 * z; q[1] = c2 * x + s2 * y;
-        q[2] = c2 * y - s2 * x; q[3] = c2 * z + s2 * w;
-    }
-}
-
-/* n steps of a-b-c-b-a with the trailing a(h/2) merged into the next leading a(h/2) */
-void splitting2(double *state, const int *order, const double *moments, double h, long n) {
-    double q[4] = {state[0], state[1], state[2], state[3]};
-    double m[3] = {state[4], state[5], state[6]};
-    int a = order[0], b = order[1], c = order[2];
-    double ra = 1.0 / moments[a], rb = 1.0 / moments[b], rc = 1.0 / moments[c];
-    axis_flow(q, m, a, ra, 0.5 * h);
-    for (long s = 0; s < n; ++s) {
-        axis_flow(q, m, b, rb, 0.5 * h);
-        axis_flow(q, m, c, rc, h);
-        axis_flow(q, m, b, rb, 0.5 * h);
-        axis_flow(q, m, a, ra, s == n - 1 ? 0.5 * h : h);
-    }
-    for (int i = 0; i < 4; ++i) state[i] = q[i];
-    for (int i = 0; i < 3; ++i) state[4 + i] = m[i];
-}
-"""
-
-# Run in a fresh process (argv: steps, dt_free, dt_top, method names): the set-up of the
-# two scenes (the process's first numba call: quaternion.exp for the top's q0), then the
-# first integrate() call of each method on the HLW body and on the heavy top; one JSON line.
-_FIRST_CALLS = r"""
-import json, sys, time, warnings
-t0 = time.perf_counter()
-import liebody
-integrate = liebody.integrate
-t_import = time.perf_counter() - t0
-from bench import core as C
-warnings.simplefilter("ignore", RuntimeWarning)
-steps, dt_free, dt_top = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
-t0 = time.perf_counter()
-cases = (("free", C.problems()["hlw"], dt_free), ("top", C.problems()["top"], dt_top))
-out = {"import_s": t_import, "setup_s": time.perf_counter() - t0, "methods": {}}
-for name in sys.argv[4:]:
-    m = liebody.methods()[name]
-    row = {}
-    for key, pb, dt in cases:
-        if not m.supports(pb.scene):
-            row[key] = None
-            continue
-        t = time.perf_counter()
-        try:
-            integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=dt, steps=steps, method=name)
-        except Exception as exc:
-            row[key + "_error"] = f"{type(exc).__name__}: {exc}"
-        row[key] = time.perf_counter() - t
-    out["methods"][name] = row
-print(json.dumps(out))
-"""
-
-# The import-time commands, timed as whole processes (wall clock, from outside); each but
-# the baseline also prints its own in-process time(s) from just before ``import liebody``.
-_T0 = "import time\nt0 = time.perf_counter()\nimport liebody\n"
-_IMPORT_COMMANDS = {
-    "baseline": "pass",
-    "import": _T0 + "print(time.perf_counter() - t0)\n",
-    "integrate_attr": _T0 + "liebody.integrate\nprint(time.perf_counter() - t0)\n",
-    "first_call": _T0 + (
-        "f = liebody.integrate\n"
-        "s = liebody.FreeBody(liebody.RigidBody([2.0, 1.0, 2.0 / 3.0], check_triangle=False))\n"
-        "t = time.perf_counter()\n"
-        "f(s, L0=[0.4535961214255773, 0.0, 0.8912073600614354], dt=0.01, steps=10,"
-        " method='splitting2')\n"
-        "print(time.perf_counter() - t0, time.perf_counter() - t)\n"),
-}
+#: the import-time children (:mod:`bench.child`), timed as whole processes; each but
+#: the empty one also reports its own in-process time(s) from just before ``import liebody``
+_IMPORT_CHILDREN = ("pass", "import", "integrate_attr", "first_call")
 
 
-def settings(quick: bool) -> dict:
+def settings(quick: bool, steps: int | None = None) -> dict:
     """Run parameters; ``quick`` trades precision for a run of well under a minute.
 
     ``steps`` is the number of steps per timed run (``splitting2`` on the free body and
     the C code always run exactly this many); a method whose run would last longer than
     ``cap_s`` runs fewer steps (at least ``min_steps``), so that the expensive methods
     do not dominate the run time. ``exact`` evaluates ``steps // exact_divisor`` samples.
+    ``steps`` (the ``--steps`` option) overrides the default.
     """
     common = {"h_free": 0.01, "h_top": 0.01, "exact_divisor": 20, "min_steps": 10_000,
               "probe_steps": 10_000, "compile_steps": 10, "min_batch": 0.02}
     if quick:
-        return {**common, "steps": 200_000, "repeat": 3, "cap_s": 0.03, "import_repeat": 3}
-    return {**common, "steps": 2_000_000, "repeat": 5, "cap_s": 0.3, "import_repeat": 5}
+        cfg = {**common, "steps": 200_000, "repeat": 3, "cap_s": 0.03, "import_repeat": 3}
+    else:
+        cfg = {**common, "steps": 2_000_000, "repeat": 5, "cap_s": 0.3, "import_repeat": 5}
+    if steps is not None:
+        if steps < 1:
+            raise ValueError(f"steps must be >= 1, got {steps}")
+        cfg["steps"] = int(steps)
+        cfg["min_steps"] = min(cfg["min_steps"], cfg["steps"])
+        cfg["probe_steps"] = min(cfg["probe_steps"], cfg["steps"])
+    return cfg
 
 
 # ------------------------------------------------------------------------- C reference
 
 
 def build_c(workdir: Path) -> tuple[ctypes.CDLL | None, str]:
-    """Compile :data:`C_SOURCE` with ``gcc -O3`` into ``workdir``.
+    """Compile :data:`C_SOURCE` (``bench/c/splitting2.c``) with ``gcc -O3`` into ``workdir``.
 
     Returns
     -------
@@ -172,10 +98,8 @@ def build_c(workdir: Path) -> tuple[ctypes.CDLL | None, str]:
     cc = shutil.which("gcc") or shutil.which("cc")
     if cc is None:
         return None, "no C compiler (gcc or cc) found: the C reference is skipped"
-    src = workdir / "splitting2.c"
     lib = workdir / "libsplitting2.so"
-    src.write_text(C_SOURCE)
-    cmd = [cc, "-O3", "-shared", "-fPIC", str(src), "-o", str(lib), "-lm"]
+    cmd = [cc, "-O3", "-shared", "-fPIC", str(C_SOURCE), "-o", str(lib), "-lm"]
     try:
         subprocess.run(cmd, check=True, capture_output=True, text=True)
         dll = ctypes.CDLL(str(lib))
@@ -197,7 +121,7 @@ def time_c(cfg: dict, order: tuple[int, int, int]) -> dict:
     ``note`` and ``max_diff`` (largest difference of the final ``q``, ``L`` from
     ``integrate(method="splitting2")`` after the same steps).
     """
-    pb = C.problems()["hlw"]
+    pb = problems()["hlw"]
     n, h = cfg["steps"], cfg["h_free"]
     with tempfile.TemporaryDirectory(prefix="liebody-c-") as tmp:
         dll, note = build_c(Path(tmp))
@@ -214,10 +138,9 @@ def time_c(cfg: dict, order: tuple[int, int, int]) -> dict:
             return s
 
         c_state = run_c()
-        med, times = C.median_time(run_c, cfg["repeat"], cfg["min_batch"])
+        med, times = core.median_time(run_c, cfg["repeat"], cfg["min_batch"])
     # same algorithm, same answer (a check that we time the same thing)
-    ours = liebody.integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=h, steps=n, method="splitting2",
-                             save_every=n)
+    ours = pb.integrate("splitting2", h, n, save_every=n)
     diff = float(max(np.abs(ours.L[-1] - c_state[4:]).max(),
                      np.abs(ours.q[-1] - c_state[:4]).max()))
     return {"ns": _ns(med, times, n), "steps": n, "note": note, "max_diff": diff,
@@ -233,13 +156,12 @@ def _ns(median: float, times: list[float], n: int) -> dict:
 # ------------------------------------------------------------------------ liebody runs
 
 
-def _integrate(pb: C.Problem, method: str, h: float, n: int, save_every: int):
-    with C.quiet_runtime_warnings():
-        return liebody.integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=h, steps=n, method=method,
-                                 save_every=save_every)
+def axis_ordering(pb: Problem, h: float) -> tuple[int, int, int]:
+    """The axis ordering ``integrate(method="splitting2")`` picks for this problem."""
+    return tuple(int(k) for k in pb.integrate("splitting2", h, 1).info["axis_ordering"])
 
 
-def time_method(pb: C.Problem, method: str, h: float, cfg: dict, full: bool = False) -> dict:
+def time_method(pb: Problem, method: str, h: float, cfg: dict, full: bool = False) -> dict:
     """ns per step (per sample for ``exact``) of one method on one problem.
 
     A short probe (which also compiles or loads the kernels) estimates the cost; the
@@ -251,13 +173,13 @@ def time_method(pb: C.Problem, method: str, h: float, cfg: dict, full: bool = Fa
     n = max(cfg["steps"] // cfg["exact_divisor"], 1) if exact else cfg["steps"]
     probe = min(n, cfg["probe_steps"])
     try:
-        _integrate(pb, method, h, probe, 1 if exact else probe)  # compile / load the cache
+        pb.integrate(method, h, probe, 1 if exact else probe)  # compile / load the cache
         t0 = time.perf_counter()
-        _integrate(pb, method, h, probe, 1 if exact else probe)
+        pb.integrate(method, h, probe, 1 if exact else probe)
         per_step = (time.perf_counter() - t0) / probe
         steps = n if full else min(n, max(cfg["min_steps"], int(cfg["cap_s"] / per_step)))
         note = ""
-        tr = _integrate(pb, method, h, steps, 1 if exact else steps)
+        tr = pb.integrate(method, h, steps, 1 if exact else steps)
         if tr.failed_at is not None:
             blown = round(tr.failed_at / h)
             stable = int(0.9 * (blown - 1))
@@ -269,8 +191,8 @@ def time_method(pb: C.Problem, method: str, h: float, cfg: dict, full: bool = Fa
     except (liebody.ConvergenceError, ValueError) as exc:
         return {"ns": None, "steps": None, "note": f"{type(exc).__name__}: {exc}"}
     save = 1 if exact else steps  # exact: one evaluation per output sample
-    med, times = C.median_time(lambda: _integrate(pb, method, h, steps, save), cfg["repeat"],
-                               cfg["min_batch"])
+    med, times = core.median_time(lambda: pb.integrate(method, h, steps, save), cfg["repeat"],
+                                  cfg["min_batch"])
     out = {"ns": _ns(med, times, steps), "steps": steps, "note": note}
     if exact:
         out["per"] = "sample"
@@ -279,23 +201,39 @@ def time_method(pb: C.Problem, method: str, h: float, cfg: dict, full: bool = Fa
 
 def call_overhead(cfg: dict) -> float:
     """Median seconds of a one-step ``integrate(method="splitting2")`` call (fixed cost)."""
-    pb = C.problems()["hlw"]
-    med, _ = C.median_time(lambda: _integrate(pb, "splitting2", cfg["h_free"], 1, 1),
-                           cfg["repeat"], cfg["min_batch"])
+    pb = problems()["hlw"]
+    med, _ = core.median_time(lambda: pb.integrate("splitting2", cfg["h_free"], 1, 1),
+                              cfg["repeat"], cfg["min_batch"])
     return med
 
 
 # ------------------------------------------------------------------ fresh processes
 
 
-def _child_env(cache_dir: Path) -> dict:
-    """The environment of the child processes: a private numba cache, this liebody first."""
+def _child(name: str, args: list, cache_dir: Path) -> tuple[str | None, float, str | None]:
+    """Run ``python -m bench.child NAME ARGS`` with a private numba cache.
+
+    The child imports liebody from where this process did and the ``bench`` package
+    from :data:`BENCH_ROOT`. Returns its last line of output (``None`` on failure), the
+    process wall time and an error message (``None`` on success).
+    """
     env = dict(os.environ)
     env["NUMBA_CACHE_DIR"] = str(cache_dir)
-    root = str(Path(liebody.__file__).resolve().parent.parent)
-    bench_root = str(Path(__file__).resolve().parent.parent)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (root, bench_root, env.get("PYTHONPATH")) if p)
-    return env
+    roots = (str(Path(liebody.__file__).resolve().parent.parent), str(BENCH_ROOT),
+             env.get("PYTHONPATH"))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in roots if p)
+    cmd = [sys.executable, "-m", "bench.child", name, *map(str, args)]
+    t0 = time.perf_counter()
+    try:
+        res = subprocess.run(cmd, env=env, cwd=BENCH_ROOT, capture_output=True, text=True,
+                             timeout=600)
+    except subprocess.TimeoutExpired:
+        return None, time.perf_counter() - t0, "timed out after 600 s"
+    wall = time.perf_counter() - t0
+    if res.returncode != 0:
+        return None, wall, res.stderr.strip()[-500:]
+    lines = res.stdout.strip().splitlines()
+    return (lines[-1] if lines else ""), wall, None
 
 
 def first_calls(cache_dir: Path, cfg: dict) -> dict:
@@ -306,23 +244,14 @@ def first_calls(cache_dir: Path, cfg: dict) -> dict:
     ``process_wall_s`` and ``total_s`` (set-up and first calls) added, or
     ``{"error": ...}`` where the process failed.
     """
-    names = [m.name for m in liebody.methods()]
-    cmd = [sys.executable, "-c", _FIRST_CALLS, str(cfg["compile_steps"]), str(cfg["h_free"]),
-           str(cfg["h_top"]), *names]
-    t0 = time.perf_counter()
+    line, wall, error = _child("first_calls", [cfg["compile_steps"], cfg["h_free"],
+                                               cfg["h_top"], *method_names()], cache_dir)
+    if error is not None:
+        return {"error": error, "process_wall_s": wall}
     try:
-        res = subprocess.run(cmd, env=_child_env(cache_dir), capture_output=True, text=True,
-                             timeout=600)
-    except subprocess.TimeoutExpired:
-        return {"error": "timed out after 600 s"}
-    wall = time.perf_counter() - t0
-    if res.returncode != 0:
-        return {"error": res.stderr.strip()[-500:], "process_wall_s": wall}
-    try:
-        out = json.loads(res.stdout.strip().splitlines()[-1])
-    except (ValueError, IndexError):
-        return {"error": f"unreadable output: {res.stdout.strip()[-500:]!r}",
-                "process_wall_s": wall}
+        out = json.loads(line)
+    except ValueError:
+        return {"error": f"unreadable output: {line[-500:]!r}", "process_wall_s": wall}
     out["process_wall_s"] = wall
     out["total_s"] = out["setup_s"] + sum(
         v for row in out["methods"].values() for k, v in row.items()
@@ -357,42 +286,44 @@ def _compile_note(empty: dict, cached: dict) -> str:
 
 
 def import_times(cache_dir: Path, cfg: dict) -> dict:
-    """Import and first-call times of fresh processes (:data:`_IMPORT_COMMANDS`).
+    """Import and first-call times of fresh processes (:data:`_IMPORT_CHILDREN`).
 
-    The commands are run round-robin ``cfg["import_repeat"]`` times with the cache in
+    The children are run round-robin ``cfg["import_repeat"]`` times with the cache in
     ``cache_dir`` (filled by :func:`compile_times`). Reported: the median whole-process
-    wall time of each, less the median of a bare ``python -c pass``, and the median
-    in-process time from just before ``import liebody`` (the wall-time differences are
-    noisier: a few ms of import drown in the interpreter's start-up).
+    wall time of each, less the median of the empty child, and the median in-process
+    time from just before ``import liebody`` (the wall-time differences are noisier: a
+    few ms of import drown in the interpreter's start-up). The first call is
+    ``splitting2`` on the HLW body.
     """
-    env = _child_env(cache_dir)
-    walls: dict[str, list[float]] = {k: [] for k in _IMPORT_COMMANDS}
-    inside: dict[str, list[float]] = {k: [] for k in _IMPORT_COMMANDS if k != "baseline"}
+    hlw = problems()["hlw"]
+    first_call = [cfg["h_free"], cfg["compile_steps"], "splitting2",
+                  *(float(v) for v in (*hlw.moments, *hlw.L0))]
+    walls: dict[str, list[float]] = {k: [] for k in _IMPORT_CHILDREN}
+    inside: dict[str, list[float]] = {k: [] for k in _IMPORT_CHILDREN if k != "pass"}
     first_call_alone: list[float] = []
     errors = {}
     for _ in range(cfg["import_repeat"]):
-        for key, code in _IMPORT_COMMANDS.items():
-            t0 = time.perf_counter()
-            res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                                 text=True, timeout=600)
-            walls[key].append(time.perf_counter() - t0)
-            if res.returncode != 0:
-                errors[key] = res.stderr.strip()[-500:]
-            elif key != "baseline":
+        for key in _IMPORT_CHILDREN:
+            line, wall, error = _child(key, first_call if key == "first_call" else [],
+                                       cache_dir)
+            walls[key].append(wall)
+            if error is not None:
+                errors[key] = error
+            elif key != "pass":
                 try:
-                    nums = [float(v) for v in res.stdout.strip().splitlines()[-1].split()]
+                    nums = [float(v) for v in line.split()]
+                    inside[key].append(nums[0])
                 except (ValueError, IndexError):
-                    errors[key] = f"unreadable output: {res.stdout.strip()[-500:]!r}"
+                    errors[key] = f"unreadable output: {line[-500:]!r}"
                     continue
-                inside[key].append(nums[0])
                 if key == "first_call":
                     first_call_alone.append(nums[1])
 
     def med(v: list[float]) -> float | None:
         return statistics.median(v) if v else None
 
-    base = med(walls["baseline"])
-    less_base = {k: med(v) - base for k, v in walls.items() if k != "baseline"}
+    base = med(walls["pass"])
+    less_base = {k: med(v) - base for k, v in walls.items() if k != "pass"}
     in_proc = {k: med(v) for k, v in inside.items()}
     out = {
         "repeat": cfg["import_repeat"],
@@ -405,9 +336,10 @@ def import_times(cache_dir: Path, cfg: dict) -> dict:
                          "import_to_first_integrate_done": in_proc["first_call"],
                          "first_integrate_call_alone": med(first_call_alone)},
         "process_walls_s": walls,
-        "note": "process wall times (medians) less a bare 'python -c pass', and in-process "
-                "times from just before 'import liebody'; the first call is splitting2 on "
-                "the HLW body, 10 steps, with the numba cache full",
+        "note": "process wall times (medians) less that of an empty child "
+                "('python -m bench.child pass'), and in-process times from just before "
+                "'import liebody'; the first call is splitting2 on the HLW body, "
+                f"{cfg['compile_steps']} steps, with the numba cache full",
     }
     if errors:
         out["errors"] = errors
@@ -417,49 +349,20 @@ def import_times(cache_dir: Path, cfg: dict) -> dict:
 # ----------------------------------------------------------------------------- driver
 
 
-def run(out: Path, quick: bool = False, show_progress: bool = True,
-        steps: int | None = None) -> dict:
-    """Measure everything, write ``step_cost.json``, ``.csv`` and ``.png`` into ``out``.
-
-    Parameters
-    ----------
-    out
-        Output folder (created).
-    quick
-        Fewer steps and repeats (see :func:`settings`).
-    show_progress
-        Show a progress bar on stderr.
-    steps
-        Override ``settings(quick)["steps"]``.
-
-    Returns
-    -------
-    dict
-        The summary written to ``step_cost.json``.
-    """
-    cfg = settings(quick)
-    if steps is not None:
-        if steps < 1:
-            raise ValueError(f"steps must be >= 1, got {steps}")
-        cfg["steps"] = int(steps)
-        cfg["min_steps"] = min(cfg["min_steps"], cfg["steps"])
-        cfg["probe_steps"] = min(cfg["probe_steps"], cfg["steps"])
-    out = Path(out)
-    free, top = C.problems()["hlw"], C.problems()["top"]
-    order, _ = registry.best_axis_ordering(free.moments, free.L0)
-    t_start = time.perf_counter()
-
-    methods = list(liebody.methods())
-    jobs = ["C"] + [m.name for m in methods] + ["compile", "import"]
-    bar = C.progress(jobs, "step cost", show_progress)
+def run(cfg: dict, progress: core.Progress) -> dict:
+    """Measure everything: the C reference, every method on both problems, the
+    ``integrate()`` call overhead, compile and import times (the body of the JSON)."""
+    free, top = problems()["hlw"], problems()["top"]
+    order = axis_ordering(free, cfg["h_free"])
+    jobs = ["C", *method_names(), "compile", "import"]
+    bar = progress(jobs, "step cost")
     c_ref: dict = {}
     rows: dict[str, dict] = {}
     compile_info: dict = {}
     imports: dict = {}
     with tempfile.TemporaryDirectory(prefix="liebody-numba-cache-") as cache:
         for job in bar:
-            if hasattr(bar, "set_postfix_str"):
-                bar.set_postfix_str(job)
+            bar.set_postfix_str(job)
             if job == "C":
                 c_ref = time_c(cfg, order)
             elif job == "compile":
@@ -480,29 +383,22 @@ def run(out: Path, quick: bool = False, show_progress: bool = True,
     overhead = call_overhead(cfg)
 
     s2 = rows.get("splitting2", {}).get("ratio_to_c")
-    summary = {
-        "machine": C.machine(),
-        "settings": cfg,
+    return {
         "problems": {"free": {"key": free.key, "title": free.title, "h": cfg["h_free"],
                               "axis_ordering": list(order)},
                      "top": {"key": top.key, "title": top.title, "h": cfg["h_top"]}},
         "c_reference": c_ref,
         "methods": rows,
-        "target": {"what": "splitting2 through integrate() within 1.25x of C (issue #3)",
+        "target": {"what": f"splitting2 through integrate() within {TARGET_RATIO}x of C",
                    "ratio": s2, "limit": TARGET_RATIO,
                    "met": None if s2 is None else bool(s2 <= TARGET_RATIO)},
         "integrate_call_overhead_s": overhead,
         "compile": compile_info,
         "import": imports,
     }
-    summary["runtime_s"] = time.perf_counter() - t_start
-    C.write_json(out / f"{NAME}.json", summary)
-    C.write_csv(out / f"{NAME}.csv", *_csv_table(summary))
-    plot(summary, out / f"{NAME}.png")
-    return summary
 
 
-def _csv_table(summary: dict) -> tuple[list[str], list[list]]:
+def csv_table(summary: dict) -> tuple[list[str], list[list]]:
     """One row per method (and one for C): ns/step on both problems, compile times."""
     header = ["method", "family", "free_ns_median", "free_ns_min", "free_ns_max", "free_steps",
               "ratio_to_c", "top_ns_median", "top_ns_min", "top_ns_max", "top_steps",
@@ -537,9 +433,8 @@ def _csv_table(summary: dict) -> tuple[list[str], list[list]]:
 # ------------------------------------------------------------------------------ chart
 
 
-def plot(summary: dict, path: Path) -> None:
+def plot(summary: dict, plt):
     """ns/step bars (log x) with the C line; compile and import times beside them."""
-    plt = C.pyplot()
     cfg = summary["settings"]
     fig = plt.figure(figsize=(14, 8.5))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.25, 1), height_ratios=(1.5, 1))
@@ -583,10 +478,9 @@ def plot(summary: dict, path: Path) -> None:
     ax.set_yticklabels([n + (" (per sample)" if summary["methods"][n]["free"].get("per")
                              else "") for n in names])
     ax.invert_yaxis()
-    ax.set_xlabel(f"wall time per step [ns] (median of {cfg['repeat']} runs of up to "
-                  f"{cfg['steps']:.0e} steps)")
-    ax.set_title("Cost per step through integrate()", fontsize=11, pad=48)
-    ax.grid(True, axis="x", which="both", alpha=0.25)
+    core.label_axes(ax, f"wall time per step [ns] (median of {cfg['repeat']} runs of up to "
+                        f"{cfg['steps']:.0e} steps)", title="Cost per step through integrate()",
+                    title_size=11, grid_axis="x", pad=48)
     ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2)
     shown += [c["ns"]["median"]] if c.get("ns") else []
     if shown:
@@ -615,16 +509,15 @@ def plot(summary: dict, path: Path) -> None:
     else:
         axc.text(0.5, 0.5, "compile-time measurement failed (see the JSON)", ha="center",
                  transform=axc.transAxes)
-    axc.set_xlabel("first integrate() call, free body + heavy top [s]")
-    axc.set_title(f"Compile: first call per method in a fresh process "
-                  f"({cfg['compile_steps']} steps)", fontsize=10)
-    axc.grid(True, axis="x", which="both", alpha=0.25)
+    core.label_axes(axc, "first integrate() call, free body + heavy top [s]",
+                    title=f"Compile: first call per method in a fresh process "
+                          f"({cfg['compile_steps']} steps)", grid_axis="x")
 
     # import times
     axi = fig.add_subplot(grid[1, 1])
     imp = summary["import"]
     ip = imp.get("in_process_s", {})
-    items = [("python -c pass, whole process\n(for scale)", imp.get("python_startup_s")),
+    items = [("empty child process, whole\n(for scale)", imp.get("python_startup_s")),
              ("import liebody", ip.get("import_liebody")),
              ("import liebody; liebody.integrate\n(loads numba)",
               ip.get("import_and_integrate_attr")),
@@ -641,12 +534,11 @@ def plot(summary: dict, path: Path) -> None:
     axi.invert_yaxis()
     axi.set_xscale("log")
     axi.set_xlim(right=max([v for v in vals if np.isfinite(v)] + [1e-3]) * 3)
-    axi.set_xlabel(f"time from just before 'import liebody' [s]\n(in-process, median of "
-                   f"{cfg['import_repeat']} fresh processes)")
-    axi.set_title("Import and first call in a fresh process", fontsize=10)
-    axi.grid(True, axis="x", which="both", alpha=0.25)
+    core.label_axes(axi, f"time from just before 'import liebody' [s]\n(in-process, median of "
+                         f"{cfg['import_repeat']} fresh processes)",
+                    title="Import and first call in a fresh process", grid_axis="x")
     fig.suptitle("liebody step cost, compile and import times")
-    C.finish_figure(fig, path)
+    return fig
 
 
 # ---------------------------------------------------------------------------- report
@@ -690,9 +582,10 @@ def report(summary: dict) -> str:
         lines.append(f"{label:22s} {fs:>11s} {rs:>6s} {ts:>11s}  {'; '.join(notes)}")
     tg = summary["target"]
     if tg["ratio"] is None:
-        lines.append("Target (issue #3): not measurable without the C reference")
+        lines.append(f"target: splitting2 within {tg['limit']}x of C: not measurable without "
+                     "the C reference")
     else:
-        lines.append(f"Target (issue #3): splitting2 within {tg['limit']}x of C: "
+        lines.append(f"target: splitting2 within {tg['limit']}x of C: "
                      f"{tg['ratio']:.2f}x -> {'met' if tg['met'] else 'NOT met'}")
     lines.append(f"integrate() fixed cost per call (1 step): "
                  f"{1e6 * summary['integrate_call_overhead_s']:.0f} us")
@@ -729,7 +622,7 @@ def report(summary: dict) -> str:
 
     lines.append(f"== import: medians of {imp['repeat']} fresh processes, in-process time from "
                  f"just before 'import liebody' [in brackets: process wall time less that of "
-                 f"python -c pass, {ms(imp['python_startup_s'])}]")
+                 f"an empty child process, {ms(imp['python_startup_s'])}]")
     lines.append(f"import liebody: {ms(ip['import_liebody'])} "
                  f"[{ms(imp['import_liebody_s'])}]")
     lines.append(f"import liebody; liebody.integrate (loads numba): "
@@ -742,19 +635,10 @@ def report(summary: dict) -> str:
                  f"not the cache load: see the compile table)")
     if imp.get("errors"):
         lines.append(f"import errors: {imp['errors']}")
-    lines.append(f"(ran in {summary['runtime_s']:.0f} s)")
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Command line: measure, write the files and print :func:`report`."""
-
-    def extra(parser):
-        parser.add_argument("--steps", type=int, default=None,
-                            help="steps per timed run (default 2e6, 2e5 with --quick)")
-
-    return C.command_line(__doc__, run, report, argv, extra)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+BENCHMARK = core.Benchmark(
+    name="step_cost", settings=settings, run=run, csv=csv_table, plot=plot, report=report,
+    options=(core.Option("--steps", "steps", type=int,
+                         help="steps per timed run (default 2e6, 2e5 with --quick)"),))

@@ -3,7 +3,7 @@
 Every registered liebody method, scipy's ``solve_ivp`` (RK45, DOP853; numba-compiled
 right-hand side) and MuJoCo (Euler, RK4, implicitfast; where installed and where the
 body is physical) on the same problems, against the same reference, in one run
-(:mod:`liebody.benchmarks._common` defines the problems and references).
+(:mod:`bench.problems` defines the problems and references).
 
 For each problem the liebody methods run a ladder of steps ``h_max / 2^k`` twice:
 
@@ -26,27 +26,41 @@ Reported (``work_precision.json``):
   beats liebody's own compiled ``rk4`` at equal cost, in global error and in energy
   error.
 
-Run ``python -m liebody bench --only work_precision [--quick]`` or
-``python bench/work_precision.py``.
+Run ``python -m bench --only work_precision [--quick] [--problem KEY ...]``.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 import liebody
-from bench import core as C
+from bench import core
 from bench import peers as P
+from bench.problems import (
+    PROBLEM_KEYS,
+    energy,
+    method_names,
+    problems,
+    reference,
+    state_error,
+)
 
-NAME = "work_precision"
+#: error levels at which the speed ratios and crossovers are reported
+ERROR_LEVELS = (1e-4, 1e-6, 1e-8, 1e-10)
 
 
-def settings(quick: bool) -> dict:
+def settings(quick: bool, problem_keys: list[str] | None = None) -> dict:
+    """Ladders, horizons and time budgets; ``problem_keys`` (``--problem``) restricts
+    the problems (default: all)."""
+    cfg = _settings(quick)
+    cfg["problems"] = list(problem_keys or PROBLEM_KEYS)
+    return cfg
+
+
+def _settings(quick: bool) -> dict:
     if quick:
         return {"T_short": 10.0, "T_long": 100.0, "horizons": [10.0, 30.0, 100.0],
                 "halvings": [0, 2, 4, 6], "repeat": 3, "min_batch": 0.005, "cap_short": 0.05,
@@ -63,12 +77,6 @@ def settings(quick: bool) -> dict:
 
 
 # ------------------------------------------------------------------------ liebody runs
-
-
-def _run(problem, method, h, n, save_every):
-    with C.quiet_runtime_warnings():
-        return liebody.integrate(problem.scene, q0=problem.q0, L0=problem.L0, dt=h, steps=n,
-                                 method=method, save_every=save_every)
 
 
 def _save_stride(n_first: int, h: float, sample_dt: float) -> int:
@@ -95,36 +103,32 @@ def liebody_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dic
         bar.set_postfix_str(f"{problem.key} {method} h={h:.3g}")
         if not short_done:
             n = round(T_s / h)
-            try:
-                tr = _run(problem, method, h, n, 1)
-            except (liebody.ConvergenceError, ValueError) as exc:
-                rows.append(_row(problem, T_s, method, "liebody", h, n, None, None, None,
-                                 note=type(exc).__name__))
+            tr, refused = _attempt(problem, T_s, method, h, n, 1)
+            if refused:
+                rows.append(refused)
                 continue
             if tr.failed_at is not None:
                 err = dE = math.inf
             else:
-                err = float(C.state_error(problem, tr.q[-1], tr.L[-1], q_s, L_s)[0])
+                err = float(state_error(problem, tr.q[-1], tr.L[-1], q_s, L_s)[0])
                 dE = float(np.abs(tr.energy / problem.E0 - 1).max())
-            wall, _ = C.median_time(lambda h=h, n=n: _run(problem, method, h, n, n),
-                                    cfg["repeat"], cfg["min_batch"])
+            wall, _ = core.median_time(lambda h=h, n=n: problem.integrate(method, h, n, n),
+                                       cfg["repeat"], cfg["min_batch"])
             rows.append(_row(problem, T_s, method, "liebody", h, n, wall, err, dE))
             short_done = (err < 1e-13) or wall > cfg["cap_short"]
         if not long_done:
             n = round(T_l / h)
             stride = _save_stride(round(horizons[0] / h), h, cfg["sample_dt"])
             t0 = time.perf_counter()
-            try:
-                tr = _run(problem, method, h, n, stride)
-            except (liebody.ConvergenceError, ValueError) as exc:
-                rows.append(_row(problem, T_l, method, "liebody", h, n, None, None, None,
-                                 note=type(exc).__name__))
+            tr, refused = _attempt(problem, T_l, method, h, n, stride)
+            if refused:
+                rows.append(refused)
                 continue
             wall = time.perf_counter() - t0
             if wall < 0.2:  # short enough to take a median (samples saved as above)
-                wall, _ = C.median_time(
-                    lambda h=h, n=n, s=stride: _run(problem, method, h, n, s), cfg["repeat"],
-                    cfg["min_batch"])
+                wall, _ = core.median_time(
+                    lambda h=h, n=n, s=stride: problem.integrate(method, h, n, s),
+                    cfg["repeat"], cfg["min_batch"])
             idx = np.rint(horizons / (stride * h)).astype(int)
             if tr.failed_at is not None or len(tr.t) <= idx[-1]:
                 errs = np.full(len(horizons), math.inf)
@@ -133,16 +137,26 @@ def liebody_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dic
                 rel = np.abs(tr.energy / problem.E0 - 1)
                 for j, i in enumerate(idx):
                     if i < ok:
-                        errs[j] = C.state_error(problem, tr.q[i], tr.L[i], q_h[j], L_h[j])[0]
+                        errs[j] = state_error(problem, tr.q[i], tr.L[i], q_h[j], L_h[j])[0]
                         dEs[j] = rel[: i + 1].max()
             else:
-                errs = C.state_error(problem, tr.q[idx], tr.L[idx], q_h, L_h)
+                errs = state_error(problem, tr.q[idx], tr.L[idx], q_h, L_h)
                 rel = np.abs(tr.energy / problem.E0 - 1)
                 dEs = np.maximum.accumulate(rel)[idx]
             rows.append(_row(problem, T_l, method, "liebody", h, n, wall, float(errs[-1]),
                              float(dEs[-1]), horizons=horizons, errs=errs, dEs=dEs))
             long_done = (errs[-1] < 1e-12) or wall > cfg["cap_long"]
     return rows
+
+
+def _attempt(problem, T: float, method: str, h: float, n: int, save_every: int):
+    """``(trajectory, None)``, or ``(None, row)`` where the method refused the step
+    (an implicit step without a solution, a step that makes the modified moments negative)."""
+    try:
+        return problem.integrate(method, h, n, save_every), None
+    except (liebody.ConvergenceError, ValueError) as exc:
+        return None, _row(problem, T, method, "liebody", h, n, None, None, None,
+                          note=type(exc).__name__)
 
 
 def _row(problem, T, method, source, setting, steps, wall, err, dE, note="", horizons=None,
@@ -168,7 +182,7 @@ def _peer_horizons(cfg: dict, refs: dict):
 
 def scipy_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dict]:
     rows = []
-    label = f"scipy {method}"
+    label = P.label("scipy", method)
     for T, (q_r, L_r), cap in _peer_horizons(cfg, refs):
         predicted_per_time = 0.0
         for rtol in cfg["rtols"]:
@@ -182,10 +196,10 @@ def scipy_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dict]
                 return P.scipy_solve(problem, T, method, rtol)
 
             res = go()
-            wall, _ = C.median_time(go, cfg["repeat"] if T == cfg["T_short"] else 1,
+            wall, _ = core.median_time(go, cfg["repeat"] if T == cfg["T_short"] else 1,
                                     min_batch=0.0)
-            err = float(C.state_error(problem, res["q"][-1], res["L"][-1], q_r, L_r)[0])
-            dE = float(abs(C.energy(problem, res["q"], res["L"])[-1] / problem.E0 - 1))
+            err = float(state_error(problem, res["q"][-1], res["L"][-1], q_r, L_r)[0])
+            dE = float(abs(energy(problem, res["q"], res["L"])[-1] / problem.E0 - 1))
             rows.append(_row(problem, T, label, "scipy", rtol, res["steps"], wall, err, dE))
             predicted_per_time = wall / T * 2.2  # the next, tighter tolerance costs more
     return rows
@@ -193,7 +207,7 @@ def scipy_ladder(problem, method: str, cfg: dict, refs: dict, bar) -> list[dict]
 
 def mujoco_ladder(problem, integrator: str, cfg: dict, refs: dict, bar) -> list[dict]:
     rows = []
-    label = f"MuJoCo {integrator}"
+    label = P.label("MuJoCo", integrator)
     for T, (q_r, L_r), cap in _peer_horizons(cfg, refs):
         for h in cfg["mujoco_h"]:
             n = round(T / h)
@@ -207,13 +221,13 @@ def mujoco_ladder(problem, integrator: str, cfg: dict, refs: dict, bar) -> list[
                                  note="skipped: over the time budget"))
                 break
             bar.set_postfix_str(f"{problem.key} {label} h={h:g} T={T:g}")
-            wall, _ = C.median_time(lambda n=n, run=run: run.run(n),
+            wall, _ = core.median_time(lambda n=n, run=run: run.run(n),
                                     cfg["repeat"] if T == cfg["T_short"] else 1, min_batch=0.0)
             q, L = run.run(n)
-            err = float(C.state_error(problem, q[-1], L[-1], q_r, L_r)[0])
+            err = float(state_error(problem, q[-1], L[-1], q_r, L_r)[0])
             if not np.isfinite(err):
                 err = math.inf
-            dE = float(abs(C.energy(problem, q, L)[-1] / problem.E0 - 1))
+            dE = float(abs(energy(problem, q, L)[-1] / problem.E0 - 1))
             rows.append(_row(problem, T, label, "MuJoCo", h, n, wall, err, dE))
     return rows
 
@@ -255,16 +269,15 @@ def ratios(rows: list[dict], problem: str, T: float) -> dict:
         if r["problem"] == problem and r["T"] == T and r["wall_s"] is not None:
             lines.setdefault(r["method"], []).append((r["cost_per_time"], r["error"]))
     out = {}
-    for level in C.ERROR_LEVELS:
+    for level in ERROR_LEVELS:
         costs = {name: cost_at(pts, level) for name, pts in lines.items()}
-        ours = {n: c for n, c in costs.items() if n in liebody.methods().names()
-                and c is not None}
+        ours = {n: c for n, c in costs.items() if n in method_names() and c is not None}
         if not ours:
             out[f"{level:.0e}"] = {"best": None}
             continue
         best = min(ours, key=ours.get)
         peers = {n: (None if c is None else c / ours[best]) for n, c in costs.items()
-                 if n not in liebody.methods().names() or n == "rk4"}
+                 if n not in method_names() or n == "rk4"}
         out[f"{level:.0e}"] = {"best": best, "best_cost_per_time_s": ours[best],
                                "ratio_peer_over_best": peers}
     return out
@@ -288,7 +301,7 @@ def crossover(rows: list[dict], problem: str, T_long: float) -> dict:
     out = {}
     for key in ("error", "energy_error"):
         per_level = {}
-        for level in C.ERROR_LEVELS:
+        for level in ERROR_LEVELS:
             table = []
             for j, T in enumerate(horizons):
                 lines: dict[str, list] = {}
@@ -336,31 +349,25 @@ def _verdict(table: list[dict], T_long: float) -> str:
 # ----------------------------------------------------------------------------- driver
 
 
-def run(out: Path, quick: bool = False, show_progress: bool = True,
-        problem_keys: list[str] | None = None) -> dict:
-    cfg = settings(quick)
-    out = Path(out)
+def run(cfg: dict, progress: core.Progress) -> dict:
+    """Every ladder on every problem; per problem the reference, ratios and crossovers."""
     rows: list[dict] = []
-    problems = [C.problems()[k] for k in (problem_keys or list(C.problems()))]
-    summary = {"machine": C.machine(), "settings": cfg, "problems": {}}
+    out: dict = {"problems": {}, "mujoco_warnings": {}}
     have_mujoco = P.mujoco_available()
-    for pb in problems:
+    for pb in (problems()[k] for k in cfg["problems"]):
         horizons = np.array(cfg["horizons"])
-        q_h, L_h, info = C.reference(pb, horizons)
+        q_h, L_h, info = reference(pb, horizons)
         refs = {"short": (q_h[0], L_h[0]), "long": (q_h[-1], L_h[-1]), "horizons": (q_h, L_h)}
         assert horizons[0] == cfg["T_short"] and horizons[-1] == cfg["T_long"]
-        jobs = [("liebody", m) for m in pb.methods()]
-        jobs += [("scipy", m) for m in P.SCIPY_METHODS]
-        if have_mujoco and pb.physical:
-            jobs += [("MuJoCo", m) for m in P.MUJOCO_INTEGRATORS]
-        bar = C.progress(jobs, f"work-precision {pb.key}", show_progress)
-        bar_obj = bar if hasattr(bar, "set_postfix_str") else _NoBar()
+        bar = progress(P.contenders(pb, have_mujoco), f"work-precision {pb.key}")
         for source, m in bar:
             # the baselines' blow-ups overflow in the diagnostics: expected, recorded
-            with np.errstate(over="ignore", invalid="ignore"), C.quiet_runtime_warnings():
-                rows += _ladder(source, pb, m, cfg, refs, bar_obj)
-        summary["problems"][pb.key] = {
-
+            with np.errstate(over="ignore", invalid="ignore"), core.quiet_runtime_warnings():
+                rows += _LADDERS[source](pb, m, cfg, refs, bar)
+            if source == "MuJoCo":
+                out["mujoco_warnings"][f"{pb.key} {P.label(source, m)}"] = (
+                    P.MUJOCO_WARNINGS.take())
+        out["problems"][pb.key] = {
             "title": pb.title, "source": pb.source, "reference": info,
             "h_omega_max_at_h_max": pb.h_max * pb.omega_max,
             "mujoco": "run" if (have_mujoco and pb.physical) else
@@ -370,33 +377,25 @@ def run(out: Path, quick: bool = False, show_progress: bool = True,
                        for T in (cfg["T_short"], cfg["T_long"])},
             "crossover_vs_rk4": crossover(rows, pb.key, cfg["T_long"]),
         }
-    summary["rows"] = rows
-    C.write_json(out / f"{NAME}.json", summary)
-    C.write_csv(out / f"{NAME}.csv",
-                ["problem", "T", "method", "source", "setting", "steps", "wall_s",
-                 "cost_per_time_s", "error", "energy_error", "note"],
-                [[r["problem"], r["T"], r["method"], r["source"], r["setting"], r["steps"],
-                  r["wall_s"], r["cost_per_time"], r["error"], r["energy_error"], r["note"]]
-                 for r in rows])
-    plot(summary, out / f"{NAME}.png", cfg)
-    return summary
+    out["rows"] = rows
+    return out
 
 
-def _ladder(source, pb, m, cfg, refs, bar):
-    if source == "liebody":
-        return liebody_ladder(pb, m, cfg, refs, bar)
-    if source == "scipy":
-        return scipy_ladder(pb, m, cfg, refs, bar)
-    return mujoco_ladder(pb, m, cfg, refs, bar)
+_LADDERS = {"liebody": liebody_ladder, "scipy": scipy_ladder, "MuJoCo": mujoco_ladder}
+
+_CSV_FIELDS = ("problem", "T", "method", "source", "setting", "steps", "wall_s",
+               "cost_per_time", "error", "energy_error", "note")
 
 
-class _NoBar:
-    def set_postfix_str(self, s):
-        pass
+def csv_table(summary: dict) -> tuple[list[str], list[list]]:
+    """One row per run."""
+    header = [f if f != "cost_per_time" else "cost_per_time_s" for f in _CSV_FIELDS]
+    return header, [[r[f] for f in _CSV_FIELDS] for r in summary["rows"]]
 
 
-def plot(summary: dict, path: Path, cfg: dict) -> None:
-    plt = C.pyplot()
+def plot(summary: dict, plt):
+    """Error against cost per problem, at the short and the long horizon."""
+    cfg = summary["settings"]
     keys = list(summary["problems"])
     fig, axes = plt.subplots(len(keys), 2, figsize=(13, 4.6 * len(keys)), squeeze=False)
     rows = summary["rows"]
@@ -415,30 +414,18 @@ def plot(summary: dict, path: Path, cfg: dict) -> None:
                              and np.isfinite(r["error"]))
                 if pts:
                     x, y = np.array(pts).T
-                    ax.loglog(x, np.maximum(y, 1e-16), **C.style(name))
+                    ax.loglog(x, np.maximum(y, 1e-16), **core.style(name))
             floor = info["reference"]["uncertainty"]
             ax.axhline(floor, color="0.6", lw=0.8)
             ax.text(0.99, floor, " reference uncertainty",
                     transform=ax.get_yaxis_transform(), ha="right", va="bottom",
                     fontsize=7, color="0.4")
-            ax.set_xlabel("wall time per unit of simulated time [s]")
-            ax.set_ylabel(f"global error at T = {T:g}")
-            ax.set_title(f"{info['title']}\nT = {T:g}", fontsize=10)
-            ax.grid(True, which="both", alpha=0.25)
+            core.label_axes(ax, "wall time per unit of simulated time [s]",
+                            f"global error at T = {T:g}", f"{info['title']}\nT = {T:g}")
             if j == 0:
                 ax.legend(fontsize=7, ncol=2, loc="lower left")
     fig.suptitle("Work-precision: global error against cost (lower left is better)")
-    C.finish_figure(fig, path)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: measure, write the files and print :func:`report`."""
-
-    def extra(parser):
-        parser.add_argument("--problem", dest="problem_keys", action="append",
-                            choices=sorted(C.problems()), help="only this problem (repeatable)")
-
-    return C.command_line(__doc__, run, report, argv, extra)
+    return fig
 
 
 def report(summary: dict) -> str:
@@ -462,5 +449,7 @@ def report(summary: dict) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+BENCHMARK = core.Benchmark(
+    name="work_precision", settings=settings, run=run, csv=csv_table, plot=plot, report=report,
+    options=(core.Option("--problem", "problem_keys", choices=PROBLEM_KEYS,
+                         repeat=True, help="only this problem (repeatable)"),))

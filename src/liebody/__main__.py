@@ -8,7 +8,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-
 BENCH_MOVED = ("liebody bench: the benchmarks are not in the package; in a source checkout "
                "run 'python -m bench [--quick]' from the repository root (bench/README.md)")
 
