@@ -1,5 +1,8 @@
-"""Smoke test of the benchmarks: ``python -m liebody bench --quick`` writes every file,
-every method is in them, and what they measured agrees with what the tests know.
+"""The benchmarks (``bench/``, run from the repository root): the smoke test runs
+``python -m bench --quick`` and checks that it writes every file, that every method is
+in them, and that what they measured agrees with what the tests know; fast tests check
+the pieces (peers, children, the interpolation) and that the package carries no
+benchmark code.
 
 Timings are never asserted; the checks are on errors, orders and invariants, which
 are deterministic.
@@ -8,28 +11,40 @@ are deterministic.
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import liebody
-from liebody.benchmarks import BENCHMARKS
-from liebody.benchmarks import _common as C
-from liebody.benchmarks import _peers as P
+from bench import BENCHMARKS
+from bench import peers as P
+from bench.problems import method_names, problems
+from bench.work_precision import ERROR_LEVELS, cost_at
 
-pytest.importorskip("matplotlib")
+ROOT = Path(__file__).resolve().parents[1]
+
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    proc = subprocess.run([sys.executable, "-m", "liebody", "bench", "--quick", "--out", str(out),
-                           "--no-progress"], capture_output=True, text=True, check=False)
+    log_before = _stat(ROOT / "MUJOCO_LOG.TXT")
+    proc = subprocess.run([sys.executable, "-m", "bench", "--quick", "--out", str(out),
+                           "--no-progress"], cwd=ROOT, capture_output=True, text=True,
+                          check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    # the MuJoCo peer keeps its warnings: nothing written into the working directory
+    assert _stat(ROOT / "MUJOCO_LOG.TXT") == log_before
     return out, proc.stdout
+
+
+def _stat(path: Path):
+    return path.stat().st_mtime_ns if path.exists() else None
 
 
 def _csv(path) -> list[dict]:
@@ -42,11 +57,13 @@ def _json(path) -> dict:
         return json.load(fh)
 
 
-def _peers(problem) -> set[str]:
-    peers = {f"scipy {m}" for m in P.SCIPY_METHODS}
-    if P.mujoco_available() and problem.physical:
-        peers |= {f"MuJoCo {m}" for m in P.MUJOCO_INTEGRATORS}
-    return peers
+def _everything(problem) -> set[str]:
+    """The names of every run on a problem: liebody's methods, scipy and MuJoCo."""
+    return {P.label(source, name) for source, name in P.contenders(problem)}
+
+
+def _is_geometric(name: str) -> bool:
+    return name in method_names() and liebody.methods()[name].family != "baseline"
 
 
 @pytest.mark.long
@@ -59,6 +76,7 @@ def test_every_benchmark_writes_its_files(quick):
         assert (out / f"{name}.png").stat().st_size > 20_000  # a chart, not an empty canvas
         data = _json(out / f"{name}.json")  # strict JSON (no NaN)
         assert data["machine"]["cpu"] and data["machine"]["numba"]
+        assert data["runtime_s"] > 0
         assert f"--- {name}" in stdout
 
 
@@ -66,10 +84,10 @@ def test_every_benchmark_writes_its_files(quick):
 def test_work_precision_has_every_method_and_peer(quick):
     out, _ = quick
     rows = _csv(out / "work_precision.csv")
-    for key, problem in C.problems().items():
+    for key, problem in problems().items():
         for T in ("10", "100"):
             names = {r["method"] for r in rows if r["problem"] == key and r["T"] == T}
-            assert names == set(problem.methods()) | _peers(problem), (key, T)
+            assert names == _everything(problem), (key, T)
 
 
 @pytest.mark.long
@@ -78,7 +96,7 @@ def test_work_precision_errors_converge_at_the_declared_order(quick):
     out, _ = quick
     rows = _csv(out / "work_precision.csv")
     summary = _json(out / "work_precision.json")
-    for key in C.problems():
+    for key in problems():
         floor = summary["problems"][key]["reference"]["uncertainty"]
         assert floor < 1e-10
         for name in ("splitting2", "splitting4", "rk4"):
@@ -98,10 +116,10 @@ def test_work_precision_reports_ratios_and_crossovers(quick):
     summary = _json(out / "work_precision.json")
     for info in summary["problems"].values():
         entry = info["ratios"]["T=10"]["1e-04"]
-        assert entry["best"] in liebody.methods().names()
+        assert entry["best"] in method_names()
         assert set(entry["ratio_peer_over_best"]) >= {"scipy DOP853", "rk4"}
         for kind in ("error", "energy_error"):
-            assert set(info["crossover_vs_rk4"][kind]) == {f"{e:.0e}" for e in C.ERROR_LEVELS}
+            assert set(info["crossover_vs_rk4"][kind]) == {f"{e:.0e}" for e in ERROR_LEVELS}
         assert info["title"] in stdout
 
 
@@ -110,24 +128,36 @@ def test_long_horizon_geometric_bounded_baselines_drift(quick):
     out, _ = quick
     summary = _json(out / "long_horizon.json")
     for key, info in summary["problems"].items():
-        problem = C.problems()[key]
-        assert set(info["final"]) == set(problem.methods()) | _peers(problem)
+        problem = problems()[key]
+        assert set(info["final"]) == _everything(problem)
         for name, f in info["final"].items():
-            if name in liebody.methods().names() and liebody.methods()[name].family != "baseline":
+            if _is_geometric(name):
                 assert f["qnorm"]["max"] < 1e-12, (key, name, f["qnorm"])
                 assert f["momentum"]["max"] < 1e-12, (key, name, f["momentum"])
                 assert f["failed_at"] is None
         rk4 = info["final"]["rk4"]["energy"]
         assert rk4["last_decile"] > 3 * rk4["early_decile"], (key, rk4)  # a secular drift
         assert info["final"]["euler"]["failed_at"] is not None, key
+    if P.mujoco_available():  # MuJoCo's Euler blows up on the top: its warnings are kept
+        assert any(summary["mujoco_warnings"]["top MuJoCo Euler"])
 
 
 @pytest.mark.long
 def test_step_cost_times_every_method(quick):
-    out, _ = quick
-    text = (out / "step_cost.csv").read_text()
-    for name in liebody.methods().names():
-        assert name in text
+    out, stdout = quick
+    rows = _csv(out / "step_cost.csv")
+    names = {r["method"] for r in rows}
+    assert names - {"C splitting2"} == set(method_names())
+    summary = _json(out / "step_cost.json")
+    # the axis ordering is the one integrate() chose, and C computes the same thing
+    assert sorted(summary["problems"]["free"]["axis_ordering"]) == [0, 1, 2]
+    if summary["c_reference"]["ns"] is not None:
+        assert "C splitting2" in names and summary["c_reference"]["agree"]
+    assert "target: splitting2 within 1.25x of C" in stdout
+    for phase in ("empty", "cached"):
+        assert set(summary["compile"][phase]["methods"]) == set(method_names())
+    assert summary["import"]["in_process_s"]["import_liebody"] > 0
+    assert "errors" not in summary["import"]
 
 
 @pytest.mark.long
@@ -141,13 +171,12 @@ def test_stability_finds_the_known_failure_points(quick):
     out, _ = quick
     data = _json(out / "stability.json")
     free, top = data["free_body"]["methods"], data["heavy_top"]["methods"]
-    assert set(free) == set(C.problems()["asym"].methods())
-    assert set(top) == set(C.problems()["top"].methods())
+    assert set(free) == set(problems()["asym"].methods())
+    assert set(top) == set(problems()["top"].methods())
     # RK4's quaternion amplification exceeds 1 beyond h|omega| = 4 sqrt 2 = 5.66
     assert 5.0 < free["rk4"]["qnorm_failure"]["x_refined"] < 6.5
-    # explicit Euler fails at once; splitting6/8 and the DMV family keep |q| at every step
-    assert free["euler"]["energy_failure"]["x"] == data["free_body"]["methods"]["euler"][
-        "sweep"]["x"][0]
+    # explicit Euler fails at once; the splittings keep |q| at every step
+    assert free["euler"]["energy_failure"]["x"] == free["euler"]["sweep"]["x"][0]
     for name in ("splitting6", "splitting8", "splitting2"):
         assert free[name]["qnorm_failure"]["x"] is None, name
     # the kick-drift splitting's resonance at h omega_nut = 2 pi
@@ -159,9 +188,10 @@ def test_stability_finds_the_known_failure_points(quick):
     assert max(run["quaternion_rk4"]) < 2 * min(run["quaternion_rk4"])
 
 
-def test_cost_at_interpolates_log_log():
-    from liebody.benchmarks.work_precision import cost_at
+# ------------------------------------------------------------------------- fast tests
 
+
+def test_cost_at_interpolates_log_log():
     pts = [(1.0, 1e-2), (10.0, 1e-6), (100.0, 1e-10)]
     assert cost_at(pts, 1e-4) == pytest.approx(10 ** 0.5)
     assert cost_at(pts, 1e-6) == pytest.approx(10.0)
@@ -170,3 +200,37 @@ def test_cost_at_interpolates_log_log():
     # a noisy line is made monotone: a worse point after a better one does not count
     assert cost_at([(1.0, 1e-3), (2.0, 1e-2), (4.0, 1e-5)], 1e-4) == pytest.approx(
         np.exp(np.log(2.0) + 0.5 * np.log(2.0)))
+
+
+def test_scipy_peer_integrates_the_same_heavy_top():
+    """The scipy RHS (liebody's gravity direction inside numba) agrees with splitting8."""
+    top = problems()["top"]
+    res = P.scipy_solve(top, 1.0, "DOP853", 1e-12)
+    ref = top.integrate("splitting8", 1e-3, 1000, save_every=1000)
+    assert np.abs(res["L"][-1] - ref.L[-1]).max() < 1e-7 * np.linalg.norm(top.L0)
+    assert np.abs(res["q"][-1] - ref.q[-1]).max() < 1e-7
+
+
+def test_mujoco_warnings_are_kept_not_written(tmp_path, monkeypatch):
+    pytest.importorskip("mujoco")
+    monkeypatch.chdir(tmp_path)
+    P.MUJOCO_WARNINGS.take()
+    run = P.MujocoRun(problems()["asym"], "Euler", 1.0)  # far too large: blows up
+    q, _ = run.run(20)
+    assert run.unstable and not np.all(np.isfinite(q))
+    assert any("unstable" in message for message in P.MUJOCO_WARNINGS.take())
+    assert list(tmp_path.iterdir()) == []  # no MUJOCO_LOG.TXT
+
+
+def test_child_times_the_import_in_a_fresh_process():
+    proc = subprocess.run([sys.executable, "-m", "bench.child", "import"], cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    assert 0 < float(proc.stdout.split()[-1]) < 60
+
+
+def test_the_package_carries_no_benchmarks(capsys):
+    from liebody.__main__ import main
+
+    assert importlib.util.find_spec("liebody.benchmarks") is None
+    assert main(["bench", "--quick"]) == 2
+    assert "python -m bench" in capsys.readouterr().err

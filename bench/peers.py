@@ -5,7 +5,7 @@
   (body frame, scalar-first q), the right-hand side compiled with numba so that the
   comparison measures the solvers, not Python arithmetic. The quaternion is not
   renormalised: that is what the equations do.
-* MuJoCo (optional, ``pip install 'liebody[bench]'``): one body on a free joint (free
+* MuJoCo (optional, ``pip install -e '.[bench]'``): one body on a free joint (free
   bodies, gravity off) or a ball joint at the fixed point (the heavy top), integrators
   Euler (semi-implicit), RK4 and implicitfast. MuJoCo's quaternions are scalar-first
   like liebody's and its joint angular velocity is in the body frame, so states map
@@ -15,14 +15,22 @@
   axes, which is negative for Simo and Wong's ``M = 20, l = 1``. Only ``M g l`` and
   ``J`` enter the equations of motion, so MuJoCo gets the same top with ``l = 0.1``
   and ``M = 200`` (``J_cm = (3, 3, 1)``): the same dynamics, a physical body.
+  MuJoCo's warnings (a blow-up) are collected in :data:`MUJOCO_WARNINGS`, not written
+  to ``MUJOCO_LOG.TXT`` in the working directory.
 """
 
 from __future__ import annotations
 
+import re
+from collections import Counter
+
 import numpy as np
 from numba import njit
 
-from liebody.benchmarks._common import Problem
+from bench.problems import Problem
+
+# the one private kernel the benchmarks use: Gamma = R(q)^T e_z inside a numba RHS
+from liebody._kernels.torque import vertical_in_body
 
 SCIPY_METHODS = ("RK45", "DOP853")
 MUJOCO_INTEGRATORS = ("Euler", "RK4", "implicitfast")
@@ -39,9 +47,7 @@ def _rhs(t, y, inv_moments, c):  # pragma: no cover - compiled
     out[1] = 0.5 * (w * o0 + yq * o2 - z * o1)
     out[2] = 0.5 * (w * o1 + z * o0 - x * o2)
     out[3] = 0.5 * (w * o2 + x * o1 - yq * o0)
-    g0 = 2.0 * (x * z - w * yq)
-    g1 = 2.0 * (yq * z + w * x)
-    g2 = w * w - x * x - yq * yq + z * z
+    g0, g1, g2 = vertical_in_body(w, x, yq, z)
     out[4] = L1 * o2 - L2 * o1 + g1 * c[2] - g2 * c[1]
     out[5] = L2 * o0 - L0 * o2 + g2 * c[0] - g0 * c[2]
     out[6] = L0 * o1 - L1 * o0 + g0 * c[1] - g1 * c[0]
@@ -49,9 +55,25 @@ def _rhs(t, y, inv_moments, c):  # pragma: no cover - compiled
 
 
 def _weight_arm(problem: Problem) -> np.ndarray:
-    scene = problem.scene
-    return np.asarray(scene.weight_arm if hasattr(scene, "weight_arm") else np.zeros(3),
-                      dtype=float)
+    """``c = M g cm`` of a heavy top (zero for a free body): the torque is ``Gamma x c``."""
+    return np.zeros(3) if problem.free else np.asarray(problem.scene.weight_arm, dtype=float)
+
+
+def contenders(problem: Problem, have_mujoco: bool | None = None) -> list[tuple[str, str]]:
+    """``(source, name)`` of everything run on a problem: liebody's methods that support
+    it, scipy's solvers, and MuJoCo's integrators where installed and the body physical."""
+    if have_mujoco is None:
+        have_mujoco = mujoco_available()
+    jobs = [("liebody", m) for m in problem.methods()]
+    jobs += [("scipy", m) for m in SCIPY_METHODS]
+    if have_mujoco and problem.physical:
+        jobs += [("MuJoCo", m) for m in MUJOCO_INTEGRATORS]
+    return jobs
+
+
+def label(source: str, name: str) -> str:
+    """How a run is named in the files: ``rk4``, ``scipy DOP853``, ``MuJoCo RK4``."""
+    return name if source == "liebody" else f"{source} {name}"
 
 
 def scipy_solve(problem: Problem, t_end: float, method: str, rtol: float,
@@ -88,6 +110,30 @@ def mujoco_available() -> bool:
     return True
 
 
+class WarningLog:
+    """MuJoCo's warnings by message (the trailing ``Time = ...`` dropped), in memory.
+
+    Installed as MuJoCo's warning handler by :class:`MujocoRun`, in place of the default
+    that prints each warning and appends it to ``MUJOCO_LOG.TXT`` in the working
+    directory. :meth:`take` returns the counts so far and starts afresh.
+    """
+
+    def __init__(self) -> None:
+        self.counts: Counter[str] = Counter()
+
+    def __call__(self, message: str) -> None:
+        self.counts[re.sub(r"\s*Time = \S*\s*$", "", message.strip())] += 1
+
+    def take(self) -> dict[str, int]:
+        out = dict(self.counts)
+        self.counts.clear()
+        return out
+
+
+#: the warnings of every MuJoCo run in this process (see :class:`WarningLog`)
+MUJOCO_WARNINGS = WarningLog()
+
+
 def _mujoco_xml(problem: Problem, integrator: str, h: float) -> str:
     I = [float(v) for v in problem.moments]
     if problem.free:
@@ -118,10 +164,10 @@ class MujocoRun:
     def __init__(self, problem: Problem, integrator: str, h: float) -> None:
         import mujoco
 
-        # MuJoCo prints a warning and, by default, silently resets the state when a run
-        # blows up; here auto-reset is off (the blow-up shows as non-finite states) and
-        # its printed warnings are swallowed (`unstable` reports them).
-        mujoco.set_mju_user_warning(lambda msg: None)
+        # MuJoCo warns and, by default, silently resets the state when a run blows up;
+        # here auto-reset is off (the blow-up shows as non-finite states, and `unstable`
+        # says so) and the warnings go to MUJOCO_WARNINGS, not to MUJOCO_LOG.TXT.
+        mujoco.set_mju_user_warning(MUJOCO_WARNINGS)
         self.mujoco = mujoco
         self.problem = problem
         self.model = mujoco.MjModel.from_xml_string(_mujoco_xml(problem, integrator, h))
