@@ -118,13 +118,20 @@ def problems() -> dict[str, Problem]:
 def energy(problem: Problem, q: np.ndarray, L: np.ndarray) -> np.ndarray:
     """Total energy (kinetic plus the scene's potential) of states ``(n, 4)``, ``(n, 3)``.
 
-    ``q`` is used as it is: a peer's quaternion that has drifted off the unit sphere
-    enters the potential as that peer's own equations would see it (normalise first for
-    the energy of the rotation it stands for).
+    A peer's quaternion that has drifted off the unit sphere enters the potential as that
+    peer's own equations see it: ``R(q)`` unnormalised, i.e. ``|q|^2`` times the potential
+    of the rotation ``q`` stands for. Non-finite states (a blow-up) give NaN.
     """
-    L = np.asarray(L)
-    return 0.5 * np.sum(L * L / problem.moments, axis=-1) + problem.scene.potential(
-        np.asarray(q))
+    q, L = np.asarray(q, dtype=float), np.asarray(L, dtype=float)
+    T = 0.5 * np.sum(L * L / problem.moments, axis=-1)
+    if problem.scene.capabilities.free:
+        return T
+    with np.errstate(over="ignore"):
+        n2 = np.sum(q * q, axis=-1)
+    V = np.full(n2.shape, np.nan)
+    ok = np.all(np.isfinite(q), axis=-1) & (n2 > 0.0)
+    V[ok] = problem.scene.potential(q[ok]) * n2[ok]
+    return T + V
 
 
 def state_error(problem: Problem, q, L, q_ref, L_ref) -> np.ndarray:

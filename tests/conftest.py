@@ -6,7 +6,7 @@
   generic over every registered method;
 * ``scenes/`` — torqued and damped scenes, and the rigid-body phenomena against their
   closed forms (Hand & Finch, *Analytical Mechanics*, ch. 8);
-* ``bench/`` — the benchmark suite's smoke test.
+* ``benchmarks/`` — the benchmark suite's smoke test.
 
 Helpers shared by several tiers live in ``support.py``.
 """

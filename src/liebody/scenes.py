@@ -253,10 +253,15 @@ class HeavyTop(Scene):
         return self.mass * self.g * self.cm
 
     def potential(self, q: np.ndarray) -> np.ndarray:
-        """``V = mass g (R(q) cm) . e_z = c . Gamma`` for unit quaternions ``(..., 4)``."""
+        """``V = mass g (R(q) cm) . e_z = c . Gamma`` at orientations ``q`` ``(..., 4)``.
+
+        ``q`` is normalised first: the potential of the rotation it stands for (the
+        baselines let ``|q|`` drift).
+        """
         from liebody import quaternion
 
-        return quaternion.rotate_inverse(q, [0.0, 0.0, 1.0]) @ self.weight_arm
+        gamma = quaternion.rotate_inverse(quaternion.normalize(q), [0.0, 0.0, 1.0])
+        return gamma @ self.weight_arm
 
     def torque_model(self) -> TorqueModel:
         return TorqueModel.gravity(self.weight_arm)

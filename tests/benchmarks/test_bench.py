@@ -27,7 +27,7 @@ from bench import peers as P
 from bench.problems import method_names, problems
 from bench.work_precision import ERROR_LEVELS, cost_at
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
