@@ -1,6 +1,6 @@
 """The benchmark problems, their references, and the error and energy measures.
 
-Three problems from the literature, each a liebody scene with its initial state:
+Three published test problems, each a liebody scene with its initial state:
 
 * ``hlw``: the free body ``I = (2, 1, 2/3)``, ``L0 = (cos 1.1, 0, sin 1.1)`` of Hairer,
   Lubich & Wanner, *Geometric Numerical Integration*, 2nd ed., Springer (2006); it

@@ -31,7 +31,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "quaternion": ("liebody.quaternion", None),
     "euler": ("liebody.euler", None),
     "inertia": ("liebody.inertia", None),
-    "RigidBody": ("liebody.body", "RigidBody"),
+    "RigidBody": ("liebody.rigid_body", "RigidBody"),
     "Scene": ("liebody.scenes", "Scene"),
     "Capabilities": ("liebody.scenes", "Capabilities"),
     "FreeBody": ("liebody.scenes", "FreeBody"),
@@ -56,7 +56,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from liebody import analysis, bodies, euler, inertia, lagrange_top, quaternion  # noqa: F401
     from liebody._integrate import ConvergenceError, integrate  # noqa: F401
     from liebody._methods import Handles, Method, methods, register  # noqa: F401
-    from liebody.body import RigidBody  # noqa: F401
+    from liebody.rigid_body import RigidBody  # noqa: F401
     from liebody.scenes import (  # noqa: F401
         Capabilities,
         DampedBody,

@@ -136,15 +136,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         from liebody._kernels.exact import exact_flow_times
 
         moments = np.ascontiguousarray(body.moments, dtype=np.float64)
-        if not progress:
-            exact_flow_times(moments, q_init, m_init, t, q_out, m_out)
-        else:
-            from tqdm.auto import tqdm
-
-            chunk = max(1, math.ceil(len(t) / _PROGRESS_CHUNKS))
-            for start in tqdm(range(0, len(t), chunk), unit="chunk"):
-                sl = slice(start, start + chunk)
-                exact_flow_times(moments, q_init, m_init, t[sl], q_out[sl], m_out[sl])
+        for a, b in _slices(len(t), 1, progress, "sample"):
+            exact_flow_times(moments, q_init, m_init, t[a:b], q_out[a:b], m_out[a:b])
         return Trajectory(t, q_out, m_out, scene, method, dt)
 
     plan = method.plan(scene, m_init, dt)
@@ -170,28 +163,34 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     return Trajectory(t, q_out, m_out, scene, method, dt, failed_at=failed_at, info=plan.info)
 
 
+def _slices(total: int, quantum: int, progress: bool, unit: str):
+    """``(start, stop)`` pairs covering ``range(total)``: one slice, or, with a tqdm bar,
+    about ``_PROGRESS_CHUNKS`` slices of whole ``quantum``s (the bar counts ``unit``s)."""
+    if not progress:
+        yield 0, total
+        return
+    from tqdm.auto import tqdm
+
+    size = max(quantum, math.ceil(total / _PROGRESS_CHUNKS / quantum) * quantum)
+    with tqdm(total=total, unit=unit, unit_scale=True) as bar:
+        for start in range(0, total, size):
+            stop = min(total, start + size)
+            yield start, stop
+            bar.update(stop - start)
+
+
 def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress, torque_fn):
-    """Run the driver, in chunks of whole save intervals when showing progress."""
+    """Run the driver over slices of whole save intervals; stop at the first failure."""
     from liebody._kernels.driver import run
 
     state = np.concatenate([q_init, m_init])
     args = (plan.family, plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, dt)
-    if not progress:
-        return run(*args, 0.0, n_steps, save_every, plan.merge_ends, state, q_out, m_out,
-                   torque_fn)
-
-    from tqdm.auto import tqdm
-
-    chunk = max(save_every, math.ceil(n_steps / _PROGRESS_CHUNKS / save_every) * save_every)
     done = saved = 0
-    with tqdm(total=n_steps, unit="step", unit_scale=True) as bar:
-        while done < n_steps:
-            n = min(chunk, n_steps - done)
-            d, s, status = run(*args, done * dt, n, save_every, plan.merge_ends, state,
-                               q_out[saved:], m_out[saved:], torque_fn)
-            done += d
-            saved += s
-            bar.update(d)
-            if status != S.STATUS_OK:
-                return done, saved, status
+    for a, b in _slices(n_steps, save_every, progress, "step"):
+        d, s, status = run(*args, a * dt, b - a, save_every, plan.merge_ends, state,
+                           q_out[saved:], m_out[saved:], torque_fn)
+        done += d
+        saved += s
+        if status != S.STATUS_OK:
+            return done, saved, status
     return done, saved, S.STATUS_OK

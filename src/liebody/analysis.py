@@ -34,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from liebody._validate import as_float_array, as_positive_float
+from liebody.rigid_body import moments_equal
 
 __all__ = [
     "Cones",
@@ -51,10 +52,6 @@ __all__ = [
     "wobble_period",
     "zero_crossings",
 ]
-
-#: Two moments are treated as equal when they differ by at most this times the largest
-#: (the same tolerance as :data:`liebody.body.DEGENERACY_RTOL`).
-EQUAL_RTOL = 1e-10
 
 _ROLES = ("smallest", "intermediate", "largest")
 
@@ -94,10 +91,6 @@ def _as_axis(name: str, value) -> int:
 
 def _as_component(value) -> int:
     return _as_axis("component", value)
-
-
-def _equal(a: float, b: float, scale: float) -> bool:
-    return abs(a - b) <= EQUAL_RTOL * scale
 
 
 def _has_samples(traj, n: int, what: str) -> None:
@@ -601,13 +594,13 @@ def stability(moments, omega: float, axis: int) -> Stability:
     a = _as_axis("axis", axis)
     b, c = (a + 1) % 3, (a + 2) % 3
     scale = float(np.max(I))
-    eq_b, eq_c = _equal(I[a], I[b], scale), _equal(I[a], I[c], scale)
+    eq_b, eq_c = moments_equal(I[a], I[b], scale), moments_equal(I[a], I[c], scale)
     if eq_b and eq_c:
         return Stability(True, 0.0)
-    if (eq_b or eq_c) and not _equal(I[b], I[c], scale):
+    if (eq_b or eq_c) and not moments_equal(I[b], I[c], scale):
         return Stability(False, 0.0)  # axis in the equal-moment plane: linear drift
     kappa = (I[a] - I[b]) * (I[c] - I[a]) / (I[b] * I[c])
-    if _equal(I[b], I[c], scale) or kappa < 0:
+    if moments_equal(I[b], I[c], scale) or kappa < 0:
         # symmetric top about its symmetry axis, or the smallest/largest axis
         return Stability(True, float(math.sqrt(abs(kappa)) * w))
     return Stability(False, float(math.sqrt(kappa) * w))
@@ -671,7 +664,7 @@ def flip_period(moments, L) -> float:
     I1, I2, I3 = (float(v) for v in I_in[order])
     L2 = L_in[order] ** 2
     scale = I3
-    if _equal(I1, I2, scale) or _equal(I2, I3, scale):
+    if moments_equal(I1, I2, scale) or moments_equal(I2, I3, scale):
         raise ValueError(
             f"flip_period needs three distinct moments, got {I_in.tolist()}: a symmetric top "
             "has no flips; its body-frame motion is the uniform wobble at "
@@ -798,7 +791,7 @@ def chandler_period(body=None) -> float:
     ValueError
         A spherical body (no wobble).
     """
-    from liebody.body import RigidBody
+    from liebody.rigid_body import RigidBody
 
     if body is None:
         from liebody.bodies import earth

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from liebody._validate import as_positive_float
-from liebody.body import RigidBody
+from liebody.rigid_body import RigidBody
 
 __all__ = ["EARTH_C", "EARTH_H", "SIDEREAL_DAY", "book", "earth", "earth_spin", "hlw"]
 

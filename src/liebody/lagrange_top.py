@@ -49,7 +49,7 @@ from scipy import integrate, optimize, special
 
 from liebody import euler as _euler
 from liebody._validate import as_float_array, as_positive_float, as_unit_quaternion
-from liebody.body import DEGENERACY_RTOL, RigidBody
+from liebody.rigid_body import EQUAL_MOMENTS_RTOL, RigidBody
 
 __all__ = [
     "DOUBLE_ROOT_RTOL",
@@ -333,7 +333,7 @@ class LagrangeTop:
         cm: ArrayLike | None = None,
         mass: float | None = None,
         g: float = STANDARD_GRAVITY,
-        rtol: float = DEGENERACY_RTOL,
+        rtol: float = EQUAL_MOMENTS_RTOL,
     ) -> LagrangeTop:
         """Top from a :class:`~liebody.RigidBody` whose moments are about the fixed point.
 
@@ -427,7 +427,7 @@ class LagrangeTop:
         return cls(I1, float(I[2]), _mgl(mgl))
 
     @classmethod
-    def from_heavy_top(cls, scene, *, rtol: float = DEGENERACY_RTOL) -> LagrangeTop:
+    def from_heavy_top(cls, scene, *, rtol: float = EQUAL_MOMENTS_RTOL) -> LagrangeTop:
         """Top from a :class:`liebody.HeavyTop` scene (body, mass, cm, g), Hand & Finch ch. 8.
 
         Raises

@@ -38,7 +38,7 @@ import numpy as np
 
 from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_NONE, TORQUE_USER
 from liebody._validate import as_float_array, as_positive_float
-from liebody.body import RigidBody
+from liebody.rigid_body import RigidBody
 
 __all__ = ["Capabilities", "DampedBody", "FreeBody", "HeavyTop", "Scene", "TorqueBody",
            "TorqueModel"]

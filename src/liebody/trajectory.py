@@ -106,7 +106,8 @@ class Trajectory:
         return np.linalg.norm(self.q, axis=-1)
 
     def euler_angles(self, unwrap: bool = False) -> np.ndarray:
-        """The reference text's z-x-z Euler angles ``(phi, theta, psi)``, shape ``(n, 3)``.
+        """The z-x-z Euler angles ``(phi, theta, psi)`` of :mod:`liebody.euler` (Hand & Finch,
+        ch. 8), shape ``(n, 3)``.
 
         ``unwrap=True`` removes the ``2 pi`` jumps of ``phi`` and ``psi`` for plotting
         long histories.

@@ -121,3 +121,23 @@ def test_dmv_kernel_finds_roots_the_fixed_point_misses():
     f = ((I[1] - I[2]) / I[0], (I[2] - I[0]) / I[1], (I[0] - I[1]) / I[2])
     assert np.abs(_dmv_residual(*c, *a, *f)).max() < 1e-14
     assert abs(np.linalg.norm(out[4:7]) - np.linalg.norm(m)) < 1e-15
+
+
+@pytest.mark.kernel
+def test_the_general_family_runs_mixed_plans(hlw):
+    """A plan mixing kinds of several families runs in the generic driver and equals the
+    stages run one family at a time."""
+    scene, L0 = hlw
+    moments = tuple(scene.moments)
+    parts = [Stage(S.RK4, 1.0, 1.0, moments=moments), Stage(S.AXIS, 0.5, axis=1, rate=0.7),
+             Stage(S.DMV, 0.3, moments=moments), Stage(S.EXACT, 0.2, moments=moments)]
+    mixed = compile_plan(parts)
+    assert mixed.family == S.F_GENERAL
+    state = np.concatenate([liebody.quaternion.random(rng=6), L0])
+    one = state.copy()
+    assert drive(mixed, 0.1, 1, one, np.empty((1, 4)), np.empty((1, 3)))[2] == S.STATUS_OK
+    for part in parts:
+        plan = compile_plan([part])
+        assert plan.family != S.F_GENERAL
+        drive(plan, 0.1, 1, state, np.empty((1, 4)), np.empty((1, 3)))
+    np.testing.assert_allclose(one, state, atol=1e-15, rtol=0)

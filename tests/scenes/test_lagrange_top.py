@@ -20,7 +20,6 @@ from scipy.integrate import solve_ivp
 
 from liebody import euler as E
 from liebody import quaternion as Q
-from liebody.body import RigidBody
 from liebody.lagrange_top import (
     ConservedQuantities,
     LagrangeTop,
@@ -28,6 +27,7 @@ from liebody.lagrange_top import (
     TopMotion,
     TurningPoints,
 )
+from liebody.rigid_body import RigidBody
 
 TOP = LagrangeTop(1.2, 0.4, 0.9)
 RTOL_ODE = 1e-12

@@ -166,7 +166,7 @@ def test_free_flow_choice_is_validated_and_symmetric_bodies_stay_exact():
     top = liebody.HeavyTop(fast_top().body, 20.0, [0, 0, 1.0], g=1.0, free_flow="axes")
     tr = liebody.integrate(top, q0=FAST_Q0, omega0=FAST_W0, dt=0.009, steps=10)
     assert tr.info["free_flow"].startswith("axes")
-    # one policy for equal moments (liebody.body): within 1e-10 the body is symmetric, its
+    # one policy for equal moments (liebody.rigid_body): within 1e-10 the body is symmetric, its
     # moments are made equal and it gets the exact symmetric flow; beyond, the axes
     for rel, kind in ((1e-12, "symmetric"), (1e-9, "axes")):
         near = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0 * (1 + rel), 1.0]), 20.0,

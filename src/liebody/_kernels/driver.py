@@ -60,6 +60,7 @@ from liebody._kernels.stages import (
     F_GENERAL,
     F_LIE_EULER,
     F_RK4,
+    F_RKMK4,
     F_ROTATIONS,
     F_SPLITTING,
     FAMILIES,
@@ -152,24 +153,23 @@ def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
-@jit
-def _baseline(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
-    """EULER, RK4, LIE_EULER or RKMK4: one whole step of a classical method (generic)."""
+@jit(inline="always")
+def _baseline(family, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+    """One whole step of a classical method (EULER, RK4, LIE_EULER, RKMK4), chosen by its
+    family code: a constant in the baselines' own drivers (one method compiled each)."""
     I1, I2, I3, eps = p[P_I1], p[P_I2], p[P_I3], p[P_EPS]
     tk, c1, c2, c3 = int(p[P_TORQUE]), p[P_C1], p[P_C2], p[P_C3]
-    if kind == EULER:
+    if family == F_EULER:
         r = euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
                        torque_fn)
-    elif kind == RK4:
+    elif family == F_RK4:
         r = rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau, torque_fn)
-    elif kind == LIE_EULER:
+    elif family == F_LIE_EULER:
         r = lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
                            torque_fn)
-    elif kind == RKMK4:
+    else:
         r = rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
                        torque_fn)
-    else:
-        return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
@@ -186,8 +186,14 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
         return _dmv(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
-    elif kind == EULER or kind == RK4 or kind == LIE_EULER or kind == RKMK4:
-        return _baseline(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+    elif kind == EULER:
+        return _baseline(F_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+    elif kind == RK4:
+        return _baseline(F_RK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+    elif kind == LIE_EULER:
+        return _baseline(F_LIE_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+    elif kind == RKMK4:
+        return _baseline(F_RKMK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
     else:
         return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
@@ -228,21 +234,7 @@ def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, t
     elif family == F_GENERAL:
         return _any_stage(kind, axis, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
     else:  # the baselines: one whole step each, torque and dissipation inside
-        p = params[j]
-        I1, I2, I3, eps = p[P_I1], p[P_I2], p[P_I3], p[P_EPS]
-        tk, c1, c2, c3 = int(p[P_TORQUE]), p[P_C1], p[P_C2], p[P_C3]
-        if family == F_EULER:
-            r = euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                           torque_fn)
-        elif family == F_RK4:
-            r = rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                         torque_fn)
-        elif family == F_LIE_EULER:
-            r = lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                               torque_fn)
-        else:
-            r = rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                           torque_fn)
+        return _baseline(family, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 

@@ -66,8 +66,10 @@ from liebody._kernels._jit import jit
 from .elliptic import carlson_rf, carlson_rj, landen_chain, landen_eval, landen_k
 from .quat import component, qaxis_rotation, qexp, qmul
 
-#: Relative tolerance under which two moments count as equal (symmetric-body branch).
-#: The symmetric formulas then err by ~SYM_RTOL |omega t|, below the t*eps phase error.
+#: The kernel's own round-off guard for raw moments: within 4 ulps the symmetric-body
+#: branch is taken (it then errs by ~SYM_RTOL |omega t|, below the t*eps phase error).
+#: Bodies built through RigidBody have equal moments made exactly equal (the one
+#: equal-moments policy of liebody.rigid_body), so they never sit in this window.
 SYM_RTOL = 4.0 * 2.0**-52
 
 # plan layout -------------------------------------------------------------------------

@@ -5,9 +5,14 @@ State: orientation ``q = (w, x, y, z)`` (body -> space) and body angular momentu
 ``q' = q (0, omega) / 2``. Every map takes and returns the state as scalars, so the
 driver keeps it in registers.
 
-Literature: ``../shared/theory/integrators-literature.md`` sections 1 (axis
-sub-flows), 1.3 (symmetric-body + rotation splitting), 3 (DMV = RATTLE on SO(3)),
-7 (Lie-group baselines), 9 (failure modes of explicit Euler and RK4).
+Sources (full references: docs/references.md): the axis sub-flows of McLachlan,
+Phys. Rev. Lett. 71 (1993) 3043, Reich (1994), Touma & Wisdom, Astron. J. 107 (1994)
+1189, and Dullweber, Leimkuhler & McLachlan, J. Chem. Phys. 107 (1997) 5840; the
+symmetric-body + rotation splitting and the quaternion form of the discrete
+Moser–Veselov step of Hairer & Vilmart, J. Phys. A 39 (2006) 13225 (Moser & Veselov,
+Commun. Math. Phys. 139 (1991) 217); the Lie-group baselines of Crouch & Grossman (1993)
+and Munthe-Kaas, BIT 38 (1998) 92. The failure modes of the baselines are derived in
+their docstrings.
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
 
     ``m_k`` is constant; ``m`` turns by ``-theta`` and ``q`` by ``+theta`` about body axis
     ``e_k``, ``theta = tau * rate * m_k``. With ``rate = 1/I_k`` this is the exact
-    sub-flow of the kinetic-energy term ``T_k`` (literature section 1.1). Keeps
+    sub-flow of the kinetic-energy term ``T_k`` (McLachlan 1993; Reich 1994). Keeps
     ``|m|``, spatial ``L = R(q) m`` exactly and ``|q|`` to round-off. One sin, one cos.
     """
     half = 0.5 * tau * rate * component(axis, m1, m2, m3)
@@ -93,7 +98,7 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     """Exact flow of ``rate * |m|^2 / 2``: ``m`` fixed, ``q <- q exp(tau rate m)``.
 
     Together with an :func:`axis_flow` about the symmetry axis (they commute) this
-    is the exact flow of a symmetric body (literature section 1.3, "SR2"). The
+    is the exact flow of a symmetric body (Touma & Wisdom 1994; Hairer & Vilmart's SR2). The
     rotation recurs every step on a free body (``|m|`` is constant), so it is applied
     in increment form (:func:`~liebody._kernels.quat.qmul_increment`): no drift of
     ``|q|`` from the rounding of ``cos`` near 1.
@@ -170,12 +175,13 @@ def _dmv_newton(c1, c2, c3, a1, a2, a3, f1, f2, f3):
 def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     """Discrete Moser–Veselov step (= RATTLE on SO(3)) in quaternion form.
 
-    Solves ``I c + c x (I c) = (h/2)(1 + |c|^2) m`` for ``c`` (literature section 3.3),
-    by Gauss–Seidel fixed-point iteration to round-off, falling back to damped Newton
-    from the last iterate and then to Newton continuation in ``h`` from ``c = 0`` (which
-    follows the physical root; beyond h|omega| of order 1 it may cease to exist), then
+    Solves ``I c + c x (I c) = (h/2)(1 + |c|^2) m`` for ``c`` (the quaternion form of the
+    Moser–Veselov step of Hairer & Vilmart 2006), by Gauss–Seidel fixed-point iteration
+    to round-off, falling back to damped Newton from the last iterate and then to Newton
+    continuation in ``h`` from ``c = 0`` (which follows the physical root; beyond
+    h|omega| of order 1 it may cease to exist), then
     ``q <- q u`` and ``m <- R(u)^T m`` with ``u = (1, c) / sqrt(1 + |c|^2)`` (in exact
-    arithmetic the same as the literature's
+    arithmetic the same as Hairer & Vilmart's update
     ``m <- m + 4/(h alpha) ((I2-I3) c2 c3, (I3-I1) c3 c1, (I1-I2) c1 c2)``, but applied as
     a rotation it keeps ``|m|`` and ``R(q) m`` to round-off without a systematic drift).
 
@@ -267,7 +273,9 @@ def euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, to
     """Explicit Euler on ``(q, m)`` in R^7, no renormalisation (baseline: fails).
 
     Order 1. For the free body energy and ``|m|`` grow every step and ``|q|`` grows
-    like ``sqrt(1 + (h |omega| / 2)^2)`` per step (literature section 9).
+    like ``sqrt(1 + (h |omega| / 2)^2)`` per step (derived: with ``f = m x omega``,
+    ``omega . f = m . f = 0``, so ``T`` and ``|m|^2`` grow by ``(h^2/2) f^T I^-1 f`` and
+    ``h^2 |f|^2``).
     """
     k = _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn)
     return (w + h * k[0], x + h * k[1], y + h * k[2], z + h * k[3],
@@ -279,7 +287,8 @@ def rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torq
     """Classical Runge–Kutta 4 on ``(q, m)`` in R^7, no renormalisation (baseline).
 
     Order 4; not symplectic, not symmetric: energy and ``|m|`` drift linearly,
-    ``|q|`` decays by about ``(h|omega|/2)^6 / 144`` per step (literature section 9).
+    ``|q|`` decays by about ``(h|omega|/2)^6 / 144`` per step (derived: for frozen ``omega``
+    ``|R(iy)|^2 = 1 - y^6/72 + y^8/576``, ``y = h|omega|/2``).
     """
     k1 = _rhs(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, torque_fn)
     b = 0.5 * h
@@ -315,9 +324,9 @@ def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
 def lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
     """Lie–Euler: ``sigma = h omega_e(m)``, coadjoint update, plus ``h tau(t, q, m)``.
 
-    Order 1 (literature section 7); stays on SO(3); without an external torque it
-    keeps ``|m|`` exactly, but it is neither symplectic nor symmetric: it drives ``m``
-    towards the axis of maximum energy.
+    Order 1 (Crouch & Grossman 1993; Iserles et al., Acta Numerica 9 (2000) 215); stays on
+    SO(3); without an external torque it keeps ``|m|`` exactly, but it is neither
+    symplectic nor symmetric: it drives ``m`` towards the axis of maximum energy.
     """
     n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
     o1, o2, o3 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
@@ -377,7 +386,7 @@ def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, I1, I2, I3, tk, 
 
 @jit
 def rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, h, torque_fn):
-    """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (literature section 7).
+    """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (Munthe-Kaas, BIT 38 (1998) 92).
 
     Order 4; stays on SO(3). Without an external torque ``m`` moves by the coadjoint
     action (``|m|`` kept exactly); with one, the method runs on SO(3) x R^3 (``m``

@@ -3,7 +3,8 @@
 A *kick* is the exact flow of the torque alone: ``q`` fixed, ``m' = tau(t, q)``, so
 ``m <- m + dt tau(t, q)``; it is exact whenever the torque depends on the
 orientation (and time) only. Kicks sandwich a free flow in the splittings of
-torqued scenes (literature section 1.2, "kick(h/2) – Step(h) – kick(h/2)").
+torqued scenes: kick(h/2) – free flow(h) – kick(h/2), a Strang splitting
+(McLachlan 1993; Dullweber, Leimkuhler & McLachlan 1997).
 
 User torques reach the kernels as a C callback of the fixed signature
 :data:`TORQUE_SIG` ``(t, w, x, y, z, m1, m2, m3) -> (tau1, tau2, tau3)`` (body frame),
@@ -54,7 +55,7 @@ def gravity_torque(w, x, y, z, c1, c2, c3):
     """Body torque ``Gamma x c`` of the potential ``V = c . Gamma`` (``c = M g cm``).
 
     ``V = M g (R(q) cm) . e_z``; under a body rotation by ``eps`` it changes by
-    ``-eps . (Gamma x c)``, so the torque is ``Gamma x c`` (literature section 8.3).
+    ``-eps . (Gamma x c)``, so the torque is ``Gamma x c``.
     """
     g1, g2, g3 = vertical_in_body(w, x, y, z)
     return g2 * c3 - g3 * c2, g3 * c1 - g1 * c3, g1 * c2 - g2 * c1

@@ -5,6 +5,20 @@ University Press, 1998), ch. 8: the principal axis transformation that diagonali
 inertia tensor, and ``L`` and ``T`` in the principal axis system. The zero-moment check
 is motivated by the ideal dumbbell of the same chapter (Euler's equations), whose
 axial moment is zero. Plain NumPy, float64.
+
+Equal moments: one policy for all of liebody
+--------------------------------------------
+Two principal moments that differ by at most :data:`EQUAL_MOMENTS_RTOL` (``1e-10``) of
+the largest are the *same* moment (:func:`moments_equal`). :class:`RigidBody` makes
+them exactly equal (replaces them by their mean: a tensor diagonalised in floating
+point returns a symmetric top's equal moments a few ulps apart) and records the
+symmetry in ``symmetry_axis`` / ``is_spherical``. Everything downstream reads those
+attributes or calls :func:`moments_equal`: the symmetric-body flows of the exact flow
+and of the splittings, the analysis of the stability of the axes, the Lagrange top.
+The exact-flow kernel, which can also be called on raw moments, keeps a round-off
+guard of its own (moments within 4 ulps take its trig-only branch, where the two
+branches agree to round-off); a body built through :class:`RigidBody` never reaches
+it with moments that are not either exactly equal or more than ``1e-10`` apart.
 """
 
 from __future__ import annotations
@@ -14,7 +28,7 @@ import numpy as np
 from liebody._validate import as_float_array, as_positive_float
 from liebody.inertia import _check_symmetric, tensor
 
-__all__ = ["DEGENERACY_RTOL", "TRIANGLE_RTOL", "ZERO_RTOL", "RigidBody"]
+__all__ = ["EQUAL_MOMENTS_RTOL", "TRIANGLE_RTOL", "ZERO_RTOL", "RigidBody", "moments_equal"]
 
 #: A principal moment ``|I_k| <= ZERO_RTOL * max_i |I_i|`` is treated as zero.
 ZERO_RTOL = 1e-12
@@ -22,8 +36,8 @@ ZERO_RTOL = 1e-12
 #: ``I_i + I_j >= I_k - TRIANGLE_RTOL * max(I)`` is accepted (planar bodies sit on equality).
 TRIANGLE_RTOL = 1e-12
 
-#: Two moments are equal (a degenerate spectrum) when ``|I_i - I_j| <= DEGENERACY_RTOL * max(I)``.
-DEGENERACY_RTOL = 1e-10
+#: Two moments are the same moment when ``|I_i - I_j| <= EQUAL_MOMENTS_RTOL * max(I)``.
+EQUAL_MOMENTS_RTOL = 1e-10
 
 _AXIS_NAMES = ("I1", "I2", "I3")
 
@@ -50,15 +64,20 @@ def _principal_axes(sym: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, V
 
 
-def _equalize(moments: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
-    """The one policy for equal moments: snap moments within ``DEGENERACY_RTOL`` together.
+def moments_equal(a: float, b: float, scale: float) -> bool:
+    """Whether moments ``a`` and ``b`` of a body whose largest moment is ``scale`` are the
+    same moment (the one policy: ``|a - b| <= EQUAL_MOMENTS_RTOL * scale``)."""
+    return abs(a - b) <= EQUAL_MOMENTS_RTOL * scale
 
-    Returns the moments with every group of equal ones replaced by its mean (so they are
-    exactly equal from here on) and the equal pairs. Two pairs equal make a sphere.
+
+def _equalize(moments: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """Make equal moments (:func:`moments_equal`) exactly equal: their mean.
+
+    Returns the moments and the equal pairs. Two pairs equal make a sphere.
     """
     scale = float(np.max(moments))
     equal = [(i, j) for i, j in ((0, 1), (0, 2), (1, 2))
-             if abs(moments[i] - moments[j]) <= DEGENERACY_RTOL * scale]
+             if moments_equal(moments[i], moments[j], scale)]
     out = np.array(moments, dtype=np.float64)
     if len(equal) >= 2:
         out[:] = out.mean()
@@ -122,8 +141,9 @@ class RigidBody:
     symmetry_axis : int or None
         Index (0, 1 or 2) of the distinct moment when exactly two moments are equal
         (a symmetric top), else ``None``. Moments are equal when they differ by at
-        most ``DEGENERACY_RTOL * max(moments)`` (``1e-10``); when two different pairs
-        are equal to that tolerance the body counts as spherical.
+        most ``EQUAL_MOMENTS_RTOL * max(moments)`` (``1e-10``), and are then made exactly
+        equal (their mean; see the module docstring); when two different pairs are
+        equal to that tolerance the body counts as spherical.
     is_symmetric : bool
         Exactly two moments equal (a symmetric top, not a sphere).
     is_spherical : bool

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 import liebody
 from liebody import inertia
-from liebody.body import DEGENERACY_RTOL, RigidBody
+from liebody.rigid_body import EQUAL_MOMENTS_RTOL, RigidBody, moments_equal
 
 HYP = settings(max_examples=40, deadline=None)
 
@@ -179,16 +179,26 @@ def test_rotated_symmetric_top_finds_its_axis(rot, I, frac):
         np.testing.assert_allclose(b.inertia_tensor, T, atol=1e-13 * I, rtol=0)
 
 
-def test_degeneracy_tolerance():
-    assert DEGENERACY_RTOL == 1e-10  # documented value
+def test_equal_moments_policy():
+    assert EQUAL_MOMENTS_RTOL == 1e-10  # documented value
     assert RigidBody([1.0, 1.0 + 5e-11, 1.5]).symmetry_axis == 2
     assert RigidBody([1.0, 1.0 + 5e-10, 1.5]).symmetry_axis is None
-    eps = DEGENERACY_RTOL
+    eps = EQUAL_MOMENTS_RTOL
     assert RigidBody([1.0, 1.0 + 0.1 * eps, 1.5]).symmetry_axis == 2
     assert RigidBody([1.0, 1.0 + 100 * eps, 1.5]).symmetry_axis is None
     # a chain of two "equal" pairs counts as spherical
     chain = RigidBody([1.0, 1.0 + 0.6 * eps, 1.0 + 1.2 * eps])
     assert chain.is_spherical and chain.symmetry_axis is None
+    # equal moments are made exactly equal (their mean), so every later decision agrees
+    near = RigidBody([1.0, 1.0 + 0.5 * eps, 1.5])
+    assert near.moments[0] == near.moments[1] == 1.0 + 0.25 * eps
+    assert chain.moments[0] == chain.moments[1] == chain.moments[2]
+    np.testing.assert_allclose(chain.moments, 1.0 + 0.6 * eps, rtol=1e-15)
+    # a symmetric top's tensor in a rotated frame: eigh returns its moments ulps apart
+    R = liebody.quaternion.to_matrix(liebody.quaternion.random(rng=2))
+    top = RigidBody(R @ np.diag([2.0, 2.0, 1.0]) @ R.T)
+    assert top.moments[1] == top.moments[2] and top.symmetry_axis == 0
+    assert moments_equal(1.0, 1.0 + 0.5 * eps, 1.0) and not moments_equal(1.0, 1.0 + 2 * eps, 1.0)
 
 
 def test_solids_symmetry():
