@@ -277,10 +277,11 @@ def _compile_note(empty: dict, cached: dict) -> str:
     big = [m for m, s in per.items() if s > 0.05 * empty["total_s"]]
     rest = max((s for m, s in per.items() if m not in big), default=0.0)
     return (f"{' and '.join(big) or 'no method'} take {sum(per[m] for m in big):.1f} s of the "
-            f"{empty['total_s']:.1f} s: the kernels are shared (one driver runs every "
-            f"stepping method, and it calls the exact flow), so whichever method comes "
-            f"first compiles nearly everything; every later method takes at most "
-            f"{1e3 * rest:.1f} ms. The scene set-up is the process's first numba call "
+            f"{empty['total_s']:.1f} s: the driver is compiled once per family of stage "
+            f"kinds, so the first method of each family (axis rotations, all rotations, "
+            f"torqued splittings, DMV, the exact flow, each baseline) compiles its own "
+            f"kernels and the later methods of a family reuse them (at most "
+            f"{1e3 * rest:.1f} ms each). The scene set-up is the process's first numba call "
             f"(quaternion.exp): numba's one-off start-up lands there "
             f"({cached['setup_s']:.2f} s even with the cache full).")
 
