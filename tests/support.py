@@ -102,11 +102,14 @@ def observed_order(error: Callable[[int], float], n0: int, t_end: float, *,
 
 def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: np.ndarray,
           torque_fn=None, runners=None):
-    """Call the driver kernel of the plan's family directly (``t0 = 0``, save every step)."""
+    """Call the driver kernel of the plan's family directly (one slice from step 0, saving
+    every step)."""
     if runners is None:
         from liebody._kernels.driver import RUNNERS as runners
-    return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, h,
-                                0.0, n, 1, plan.merge_ends, state, q_out, m_out, torque_fn)
+    ctl = np.array([1, 0], dtype=np.int64)
+    return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params,
+                                plan.merge_ends, h, 0, n, 1, True, state, ctl, q_out, m_out,
+                                torque_fn)
 
 
 def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):

@@ -42,7 +42,12 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "analysis": ("liebody.analysis", None),
     "bodies": ("liebody.bodies", None),
     "integrate": ("liebody._integrate", "integrate"),
-    "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
+    "errors": ("liebody.errors", None),
+    "ConvergenceError": ("liebody.errors", "ConvergenceError"),
+    "IntegrationError": ("liebody.errors", "IntegrationError"),
+    "IntegrationInterrupted": ("liebody.errors", "IntegrationInterrupted"),
+    "InvariantWarning": ("liebody.errors", "InvariantWarning"),
+    "TorqueError": ("liebody.errors", "TorqueError"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
     "methods": ("liebody._methods", "methods"),
     "Method": ("liebody._methods", "Method"),
@@ -53,9 +58,24 @@ _LAZY: dict[str, tuple[str, str | None]] = {
 __all__ = sorted(_LAZY) + ["__version__"]
 
 if TYPE_CHECKING:  # pragma: no cover
-    from liebody import analysis, bodies, euler, inertia, lagrange_top, quaternion  # noqa: F401
-    from liebody._integrate import ConvergenceError, integrate  # noqa: F401
+    from liebody import (  # noqa: F401
+        analysis,
+        bodies,
+        errors,
+        euler,
+        inertia,
+        lagrange_top,
+        quaternion,
+    )
+    from liebody._integrate import integrate  # noqa: F401
     from liebody._methods import Handles, Method, methods, register  # noqa: F401
+    from liebody.errors import (  # noqa: F401
+        ConvergenceError,
+        IntegrationError,
+        IntegrationInterrupted,
+        InvariantWarning,
+        TorqueError,
+    )
     from liebody.rigid_body import RigidBody  # noqa: F401
     from liebody.scenes import (  # noqa: F401
         Capabilities,

@@ -2,19 +2,30 @@
 
 Contract (a template method, after scipy's ``OdeSolver``):
 
-1. validate every argument (``ValueError``/``TypeError`` naming it and the rule);
-2. resolve the method (``None`` -> the scene's default) and check it supports the scene;
+1. validate every argument (``ValueError``/``TypeError`` naming it and the rule),
+   including that the samples the run keeps fit in memory;
+2. resolve the method (``None`` -> the scene's default) and check it can integrate the
+   scene (by its capabilities);
 3. plan it: a stage table made concrete for this body, initial state and step
    (set-up choices such as the axis ordering are recorded in ``Trajectory.info``);
-4. run the one driver kernel (in chunks when a progress bar is asked for), which
-   keeps the state in registers and writes only the saved samples;
-5. wrap the samples in a :class:`~liebody.trajectory.Trajectory`; a run that produced
-   a non-finite state stops there, warns, and sets ``failed_at``.
+4. run the driver of the plan's family in slices of bounded time (a fraction of a
+   second each), so that Ctrl-C stops the run within about a second whatever the run's
+   length; slicing does not change a bit of the result;
+5. wrap the samples in a :class:`~liebody.trajectory.Trajectory`. Nothing fails
+   silently: a non-finite state stops the run, keeps the samples before it, sets
+   ``failed_at`` and warns; a failed implicit solve or a failing user torque raises
+   (:class:`~liebody.errors.ConvergenceError`, :class:`~liebody.errors.TorqueError`)
+   with the samples before it on the exception; Ctrl-C raises
+   :class:`~liebody.errors.IntegrationInterrupted` with the samples so far; and a
+   complete run whose invariants left their tolerance warns
+   (:class:`~liebody.errors.InvariantWarning`).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import time
 import warnings
 
 import numpy as np
@@ -23,18 +34,32 @@ from liebody import _methods
 from liebody._kernels import stages as S
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
-from liebody.scenes import Scene
+from liebody.errors import (
+    ConvergenceError,
+    IntegrationInterrupted,
+    InvariantWarning,
+    TorqueError,
+)
+from liebody.scenes import Scene, TorqueModel
 from liebody.trajectory import Trajectory
 
 __all__ = ["ConvergenceError", "integrate"]
 
-_PROGRESS_CHUNKS = 200
-#: the most samples a run may keep (about 56 GB); beyond it save_every must grow
-MAX_SAMPLES = 10**9
+#: bytes one saved sample takes: t (8), q (32), L (24)
+SAMPLE_BYTES = 64
+#: the largest step count (float64 step indices stay exact below 2^53)
+MAX_STEPS = 2**53
+#: the largest |L| accepted: |L|^2 / (2 I) overflows float64 near 1e154
+MAX_MOMENTUM = 1e150
+#: wall time a slice of the run aims at: Ctrl-C is seen between slices
+SLICE_SECONDS = 0.2
+#: steps (or samples) in the first slice of a run; later slices are sized by the clock
+FIRST_SLICE = 4096
 
-
-class ConvergenceError(RuntimeError):
-    """An implicit method (``rattle``) failed to solve its step equation."""
+#: tolerances of the end-of-run check (InvariantWarning)
+QNORM_TOL = 1e-6  # | |q| - 1 |, any method
+CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
+ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
 
 
 def _initial_momentum(body, L0, omega0) -> np.ndarray:
@@ -42,23 +67,80 @@ def _initial_momentum(body, L0, omega0) -> np.ndarray:
         raise ValueError("give exactly one of L0 (body angular momentum) and omega0 "
                          "(body angular velocity)")
     if L0 is not None:
-        return as_float_array("L0", L0, shape=(3,)).copy()
-    return body.moments * as_float_array("omega0", omega0, shape=(3,))
+        name, m = "L0", as_float_array("L0", L0, shape=(3,)).copy()
+    else:
+        name, m = "omega0", body.moments * as_float_array("omega0", omega0, shape=(3,))
+    size = float(np.max(np.abs(m)))
+    if not size <= MAX_MOMENTUM:
+        raise ValueError(
+            f"{name} is too large: its angular momentum reaches {size:.3g}, above "
+            f"{MAX_MOMENTUM:.0e}; the kinetic energy |L|^2/(2 I) would overflow float64. "
+            f"Rescale the units of time or inertia")
+    return m
 
 
 def _step_count(dt: float, steps, t_end) -> int:
     if (steps is None) == (t_end is None):
         raise ValueError("give exactly one of steps and t_end")
     if steps is not None:
-        return as_positive_int("steps", steps)
+        n = as_positive_int("steps", steps)
+        if n > MAX_STEPS:
+            raise ValueError(f"steps must be at most 2^53 = {MAX_STEPS:.3g}, got {n:.3g}")
+        return n
     t_end = as_positive_float("t_end", t_end)
     n = t_end / dt
+    if not n <= MAX_STEPS:
+        raise ValueError(f"t_end/dt = {n:.3g} steps: more than 2^53 = {MAX_STEPS:.3g}; "
+                         f"raise dt or lower t_end")
     k = round(n)
-    if k < 1 or abs(n - k) > 1e-9 * max(1.0, n):
+    # t_end/dt is rounded to ~eps relative: a whole number of steps is within a few ulps
+    if k < 1 or abs(n - k) > 8.0 * 2.0**-52 * max(1.0, n):
         raise ValueError(
             f"t_end must be a whole number of steps dt: t_end/dt = {n!r}; choose dt = "
             f"t_end/k for an integer k, or pass steps= instead")
     return int(k)
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return None
+
+
+def _sample_times(n_steps: int, save_every: int, dt: float) -> np.ndarray:
+    """Times of the saved samples: steps 0, save_every, 2 save_every, ..., and the last."""
+    n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
+    n_samples = n_saves + 1
+    need = n_samples * SAMPLE_BYTES
+    avail = _available_memory()
+    if avail is not None and need > avail:
+        # suggest a save_every whose samples take at most half the available memory
+        fit = max(1, avail // (2 * SAMPLE_BYTES) - 1)
+        every = max(save_every + 1, math.ceil(n_steps / fit))
+        kept = n_steps // every + (1 if n_steps % every else 0) + 1
+        raise ValueError(
+            f"save_every = {save_every:,} keeps {n_samples:.4g} samples of "
+            f"{SAMPLE_BYTES} B ({need / 1e9:.3g} GB), more than the {avail / 1e9:.3g} GB "
+            f"of memory available; save_every = {every:,} keeps {kept:,} samples "
+            f"({kept * SAMPLE_BYTES / 1e9:.3g} GB)")
+    try:
+        t = np.arange(n_samples, dtype=np.float64)
+    except MemoryError:  # pragma: no cover - the check above should have refused it
+        raise MemoryError(f"no memory for {n_samples:.4g} samples "
+                          f"({need / 1e9:.3g} GB); raise save_every") from None
+    t *= save_every
+    t[-1] = n_steps
+    t *= dt
+    return t
 
 
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
@@ -77,7 +159,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     dt
         Step size (> 0). For ``method="exact"`` it only sets the output spacing.
     steps, t_end
-        Exactly one: number of steps, or final time (a whole multiple of ``dt``).
+        Exactly one: number of steps (at most 2^53), or final time (a whole multiple of
+        ``dt``).
     method
         A name from :func:`liebody.methods` or ``None`` for the scene's default. For a
         :class:`~liebody.FreeBody` the default is ``"exact"``: the free body is
@@ -85,23 +168,36 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         stepping (and no discretisation error) is spent on it.
     save_every
         Keep every ``save_every``-th step (plus the start and the final state); memory
-        is exactly the saved samples.
+        is exactly the saved samples, 64 bytes each. A run whose samples do not fit in
+        the available memory is refused up front, with the ``save_every`` that would fit.
     progress
-        Show a tqdm progress bar, running the kernel in chunks.
+        Show a tqdm progress bar.
 
     Returns
     -------
     Trajectory
-        ``t``, ``q``, ``L`` (body) and derived diagnostics. A baseline that blows up
-        (non-finite state) returns the samples before the failure, sets
-        ``failed_at`` and emits a ``RuntimeWarning``.
+        ``t``, ``q``, ``L`` (body) and derived diagnostics. A run whose state becomes
+        non-finite (a baseline that blows up, an overflowing state) returns the samples
+        before the failure, sets ``failed_at`` and ``status = "failed"`` and emits a
+        ``RuntimeWarning``. A complete run whose invariants left their tolerance by the
+        end (``|q|`` off 1 by more than 1e-6; ``|L|`` for methods that keep it on a
+        torque-free scene; the energy, by more than 1 %, for symplectic methods on a
+        conservative scene) emits an :class:`~liebody.errors.InvariantWarning`.
 
     Raises
     ------
     ValueError, TypeError
         Invalid arguments (each message names the argument and the rule).
     ConvergenceError
-        ``rattle``'s implicit equation did not converge (step far too large).
+        An implicit equation was not solved (RATTLE/DMV at ``h |omega|`` beyond about 1,
+        or the implicit kick of a stiff momentum-dependent torque); ``.trajectory`` holds
+        the samples before the failing step.
+    TorqueError
+        A user torque raised or returned something other than three finite numbers;
+        the torque's exception is the cause, ``.trajectory`` holds the samples before.
+    IntegrationInterrupted
+        Ctrl-C during the run (a ``KeyboardInterrupt``); ``.trajectory`` holds the
+        samples computed so far. The run stops within about a second.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
@@ -119,78 +215,273 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
+    model = scene.torque_model()
+    _check_torque(model, q_init, m_init)
+    t = _sample_times(n_steps, save_every, dt)
+    run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress)
+    return run.sampled() if method.sampled else run.stepped()
 
-    # sample indices: 0, save_every, 2 save_every, ..., and the final step
-    n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
-    if n_saves > MAX_SAMPLES:
-        raise ValueError(
-            f"the run would save {n_saves + 1} samples ({56 * (n_saves + 1) / 1e9:.1f} GB): "
-            f"more than {MAX_SAMPLES}; raise save_every (steps = {n_steps}, dt = {dt:g})")
-    q_out = np.empty((n_saves + 1, 4))
-    m_out = np.empty((n_saves + 1, 3))
-    q_out[0], m_out[0] = q_init, m_init
-    step_index = np.minimum(np.arange(n_saves + 1, dtype=np.int64) * save_every, n_steps)
-    t = step_index * dt
 
-    if method.sampled:
+def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray) -> None:
+    """A user torque is called once on the initial state: three finite numbers, or a
+    clear error before the run starts."""
+    if model.function is None:
+        return
+    name = getattr(model.function, "__name__", "torque")
+    try:
+        value = np.asarray(model.function(0.0, q0.copy(), m0.copy()), dtype=float)
+    except Exception as exc:
+        raise TorqueError(f"the torque {name}(t, q, L) raised {type(exc).__name__} on the "
+                          f"initial state: {exc}", step=0, t=0.0) from exc
+    if value.shape != (3,):
+        raise ValueError(f"the torque {name}(t, q, L) must return 3 numbers, got shape "
+                         f"{value.shape} on the initial state")
+    if not np.all(np.isfinite(value)):
+        raise TorqueError(f"the torque {name}(t, q, L) returned non-finite values "
+                          f"{value.tolist()} on the initial state", step=0, t=0.0)
+
+
+class _Run:
+    """One call of :func:`integrate` after validation: runs it and reports the outcome."""
+
+    def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress):
+        self.scene, self.method, self.dt = scene, method, dt
+        self.q0, self.m0 = q0, m0
+        self.n_steps, self.save_every, self.t = n_steps, save_every, t
+        self.model, self.progress = model, progress
+        n = t.shape[0]
+        self.q_out = np.empty((n, 4))
+        self.m_out = np.empty((n, 3))
+        self.q_out[0], self.m_out[0] = q0, m0
+        self.info: dict = {}
+
+    # -------------------------------------------------------------- slices
+    def _slices(self, total: int, unit: str):
+        """Sizes of consecutive slices covering ``total`` units, each aiming at
+        :data:`SLICE_SECONDS` of wall time (the first is short, to measure the rate)."""
+        bar = None
+        if self.progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=total, unit=unit, unit_scale=True)
+        done, size = 0, FIRST_SLICE
+        try:
+            while done < total:
+                n = min(size, total - done)
+                start = time.perf_counter()
+                yield n
+                done += n
+                if bar is not None:
+                    bar.update(n)
+                spent = time.perf_counter() - start
+                rate = n / max(spent, 1e-6)
+                size = int(min(max(rate * SLICE_SECONDS, 1), 16 * size))
+        finally:
+            if bar is not None:
+                bar.close()
+
+    # -------------------------------------------------------------- the exact flow
+    def sampled(self) -> Trajectory:
+        """The exact flow evaluated at the output times, in slices of samples."""
         from liebody._kernels.exact import exact_flow_times
 
-        moments = np.ascontiguousarray(body.moments, dtype=np.float64)
-        for a, b in _slices(len(t), 1, progress, "sample"):
-            exact_flow_times(moments, q_init, m_init, t[a:b], q_out[a:b], m_out[a:b])
-        return Trajectory(t, q_out, m_out, scene, method, dt)
+        moments = np.ascontiguousarray(self.scene.moments, dtype=np.float64)
+        t, q, m = self.t, self.q_out, self.m_out
+        done = 1  # sample 0 is the initial state
+        try:
+            for n in self._slices(len(t) - 1, "sample"):
+                sl = slice(done, done + n)
+                exact_flow_times(moments, self.q0, self.m0, t[sl], q[sl], m[sl])
+                bad = ~(np.isfinite(q[sl]).all(axis=1) & np.isfinite(m[sl]).all(axis=1))
+                if bad.any():
+                    k = done + int(np.argmax(bad))
+                    return self._failed_nonfinite(k, k - 1, t[k])
+                done += n
+        except KeyboardInterrupt:
+            self._interrupted(done, self._step_of_sample(done - 1))
+        return self._finish(Trajectory(t, q, m, self.scene, self.method, self.dt))
 
-    plan = method.plan(scene, m_init, dt)
-    steps_done, n_saved, status = _run(plan, dt, n_steps, save_every, q_init, m_init,
-                                       q_out[1:], m_out[1:], progress,
-                                       scene.torque_model().callback)
-    if status == S.STATUS_BAD_STAGE:  # pragma: no cover - a plan the family cannot run
-        raise RuntimeError(f"{method.name}: the plan holds a stage its driver family "
-                           f"{plan.family} does not run (a bug in its recipe)")
-    if status in (S.STATUS_NO_CONVERGENCE, S.STATUS_KICK_NO_CONVERGENCE):
-        raise ConvergenceError(
-            f"{method.name}: the implicit step equation did not converge at step "
-            f"{steps_done} (t = {steps_done * dt:g}); reduce dt (h|omega| is too large)")
-    failed_at = None
-    if status != S.STATUS_OK:
-        failed_at = (steps_done + 1) * dt
-        n_keep = 1 + n_saved
-        q_out, m_out, t = q_out[:n_keep].copy(), m_out[:n_keep].copy(), t[:n_keep].copy()
+    def _step_of_sample(self, k: int) -> int:
+        return min(k * self.save_every, self.n_steps)
+
+    # -------------------------------------------------------------- stepping
+    def stepped(self) -> Trajectory:
+        """Run the method's stage table through the driver of its family, in slices."""
+        from liebody._kernels.driver import RUNNERS
+
+        plan = self.method.plan(self.scene, self.m0, self.dt)
+        self.info = plan.info
+        runner = RUNNERS[plan.family]
+        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, plan.merge_ends)
+        state = np.concatenate([self.q0, self.m0])
+        ctl = np.array([self.save_every, 0], dtype=np.int64)
+        done = saved = 0
+        status = S.STATUS_OK
+        try:
+            for n in self._slices(self.n_steps, "step"):
+                d, s, status = runner(*table, self.dt, done, n, self.save_every,
+                                      done + n == self.n_steps, state, ctl,
+                                      self.q_out[1 + saved:], self.m_out[1 + saved:],
+                                      self.model.callback)
+                done += d
+                saved += s
+                if status != S.STATUS_OK:
+                    break
+        except KeyboardInterrupt:
+            self._interrupted(1 + saved, done)
+        if status == S.STATUS_OK:
+            traj = Trajectory(self.t, self.q_out, self.m_out, self.scene, self.method, self.dt,
+                              info=self.info)
+            return self._finish(traj)
+        return self._failed(status, done, saved, state)
+
+    # -------------------------------------------------------------- outcomes
+    def _partial(self, n_keep: int, status: str, failed_at: float | None = None) -> Trajectory:
+        return Trajectory(self.t[:n_keep].copy(), self.q_out[:n_keep].copy(),
+                          self.m_out[:n_keep].copy(), self.scene, self.method, self.dt,
+                          failed_at=failed_at, info=self.info, status=status)
+
+    def _interrupted(self, n_keep: int, step: int):
+        traj = self._partial(n_keep, "interrupted")
+        raise IntegrationInterrupted(
+            f"{self.method.name}: interrupted after {step:,} of {self.n_steps:,} steps "
+            f"(t = {step * self.dt:.6g}); the {n_keep:,} samples computed so far are on this "
+            f"exception's .trajectory", traj, step, step * self.dt) from None
+
+    def _failed_nonfinite(self, n_keep: int, step: int, t_fail: float) -> Trajectory:
+        traj = self._partial(n_keep, "failed", failed_at=t_fail)
         warnings.warn(
-            f"{method.name}: the state became non-finite at step {steps_done + 1} "
-            f"(t = {failed_at:g}); returning the {n_keep} samples before it "
-            f"(Trajectory.failed_at is set)", RuntimeWarning, stacklevel=2)
-    return Trajectory(t, q_out, m_out, scene, method, dt, failed_at=failed_at, info=plan.info)
+            f"{self.method.name}: the state became non-finite at step {step + 1:,} "
+            f"(t = {t_fail:.6g}); returning the {n_keep:,} samples before it "
+            f"(Trajectory.failed_at is set)", RuntimeWarning, stacklevel=4)
+        return traj
+
+    def _failed(self, status: int, done: int, saved: int, state: np.ndarray) -> Trajectory:
+        name, dt = self.method.name, self.dt
+        n_keep = 1 + saved
+        t0 = done * dt  # the failing step starts here
+        where = (f"at step {done + 1:,} (t = {t0:.6g}); the {n_keep:,} samples before it are "
+                 f"on this exception's .trajectory")
+        if status == S.STATUS_NONFINITE:
+            # a user torque that fails inside a one-stage method (the baselines) shows as a
+            # non-finite state: ask the torque at the step's clock values before blaming
+            # the dynamics
+            if self.model.function is not None and not _torque_is_finite(
+                    self.model, state, (t0, t0 + 0.5 * dt, t0 + dt)):
+                _raise_torque_error(self.model, name, where, state, t0,
+                                    self._partial(n_keep, "failed", failed_at=t0), done)
+            return self._failed_nonfinite(n_keep, done, (done + 1) * dt)
+        traj = self._partial(n_keep, "failed", failed_at=t0)
+        if status == S.STATUS_TORQUE:
+            _raise_torque_error(self.model, name, where, state, t0, traj, done)
+        if status == S.STATUS_NO_CONVERGENCE:
+            w = float(np.max(np.abs(state[4:] / self.scene.moments)))
+            raise ConvergenceError(
+                f"{name}: the implicit DMV (RATTLE) equation has no solution {where}. "
+                f"h |omega| = {dt * w:.3g} there; the physical root exists up to about 1: "
+                f"reduce dt below about {0.7 / w:.3g}", traj, done, t0)
+        if status == S.STATUS_KICK_NO_CONVERGENCE:
+            stiff = _torque_stiffness(self.model, state, t0)
+            raise ConvergenceError(
+                f"{name}: the implicit kick of the momentum-dependent torque did not "
+                f"converge {where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; "
+                f"reduce dt, or check that the torque is smooth in L", traj, done, t0)
+        raise RuntimeError(  # pragma: no cover - a plan the family cannot run
+            f"{name}: the plan holds a stage its driver does not run (status {status}): "
+            f"a bug in its recipe")
+
+    def _finish(self, traj: Trajectory) -> Trajectory:
+        """Warn when an invariant the method should keep left its tolerance by the end."""
+        problems = _invariant_problems(traj)
+        if problems:
+            warnings.warn(f"{self.method.name}: " + "; ".join(problems)
+                          + " (the step may be too large for this scene, or the method does "
+                            "not keep this invariant)", InvariantWarning, stacklevel=4)
+        return traj
 
 
-def _slices(total: int, quantum: int, progress: bool, unit: str):
-    """``(start, stop)`` pairs covering ``range(total)``: one slice, or, with a tqdm bar,
-    about ``_PROGRESS_CHUNKS`` slices of whole ``quantum``s (the bar counts ``unit``s)."""
-    if not progress:
-        yield 0, total
-        return
-    from tqdm.auto import tqdm
+def _invariant_problems(traj: Trajectory) -> list[str]:
+    """The invariants of ``traj`` that left their tolerance between its first and last
+    sample, in words (empty for a healthy run)."""
+    method, scene = traj.method, traj.scene
+    caps = scene.capabilities
+    out = []
+    qn = float(np.linalg.norm(traj.q[-1]))
+    if not abs(qn - 1.0) <= QNORM_TOL:
+        out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    if method.keeps_casimir and not caps.torque:
+        g0, g1 = (float(np.linalg.norm(traj.L[i])) for i in (0, -1))
+        if not abs(g1 - g0) <= CASIMIR_TOL * g0:
+            out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
+                       f"relative")
+    if (method.symplectic or method.keeps_energy) and caps.conservative:
+        ends = traj.q[[0, -1]]
+        T = 0.5 * np.sum(traj.L[[0, -1]] ** 2 / traj.moments, axis=1)
+        V = scene.potential(ends / np.linalg.norm(ends, axis=1)[:, None])
+        e0, e1 = T + V
+        scale = T[0] + abs(V[0])
+        if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
+            out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
+                       f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
+    if caps.dissipative and method.keeps_casimir:
+        T = 0.5 * np.sum(traj.L[[0, -1]] ** 2 / traj.moments, axis=1)
+        if T[1] > T[0] * (1.0 + 1e-9):
+            out.append(f"the energy grew from {T[0]:.6g} to {T[1]:.6g} in a dissipative "
+                       f"scene")
+    return out
 
-    size = max(quantum, math.ceil(total / _PROGRESS_CHUNKS / quantum) * quantum)
-    with tqdm(total=total, unit=unit, unit_scale=True) as bar:
-        for start in range(0, total, size):
-            stop = min(total, start + size)
-            yield start, stop
-            bar.update(stop - start)
+
+def _torque_is_finite(model, state, times) -> bool:
+    """Whether the user torque gives three finite numbers at ``state`` for every time."""
+    q, m = state[:4].copy(), state[4:].copy()
+    for t in times:
+        try:
+            value = np.asarray(model.function(t, q, m), dtype=float)
+        except Exception:
+            return False
+        if value.shape != (3,) or not np.all(np.isfinite(value)):
+            return False
+    return True
 
 
-def _run(plan, dt, n_steps, save_every, q_init, m_init, q_out, m_out, progress, torque_fn):
-    """Run the driver over slices of whole save intervals; stop at the first failure."""
-    from liebody._kernels.driver import run
+def _raise_torque_error(model, name, where, state, t0, traj, step):
+    """Call the user's torque at the last good state (at the step's clock values) to raise
+    its own error, chained."""
+    fn = model.function
+    fname = getattr(fn, "__name__", "torque")
+    q, m = state[:4].copy(), state[4:].copy()
+    dt = traj.dt
+    for t in (t0, t0 + 0.5 * dt, t0 + dt):
+        try:
+            value = np.asarray(fn(t, q, m), dtype=float)
+        except Exception as exc:
+            raise TorqueError(f"{name}: the torque {fname}(t, q, L) raised "
+                              f"{type(exc).__name__} ({exc}) {where}", traj, step,
+                              t0) from exc
+        if value.shape != (3,):
+            raise TorqueError(f"{name}: the torque {fname}(t, q, L) returned shape "
+                              f"{value.shape}, not 3 numbers, {where}", traj, step, t0)
+        if not np.all(np.isfinite(value)):
+            raise TorqueError(f"{name}: the torque {fname}(t, q, L) returned non-finite "
+                              f"values {value.tolist()} {where}", traj, step, t0)
+    raise TorqueError(f"{name}: the torque {fname}(t, q, L) raised or returned non-finite "
+                      f"values inside the step {where} (it is well behaved at the step's "
+                      f"start state)", traj, step, t0)
 
-    state = np.concatenate([q_init, m_init])
-    args = (plan.family, plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, dt)
-    done = saved = 0
-    for a, b in _slices(n_steps, save_every, progress, "step"):
-        d, s, status = run(*args, a * dt, b - a, save_every, plan.merge_ends, state,
-                           q_out[saved:], m_out[saved:], torque_fn)
-        done += d
-        saved += s
-        if status != S.STATUS_OK:
-            return done, saved, status
-    return done, saved, S.STATUS_OK
+
+def _torque_stiffness(model, state, t0) -> float:
+    """``max |dN/dL|`` of a user torque at ``state``, by central differences (a diagnosis)."""
+    fn = model.function
+    if fn is None:
+        return math.nan
+    q, m = state[:4].copy(), state[4:].copy()
+    e = 1e-6 * max(1.0, float(np.max(np.abs(m))))
+    J = np.empty((3, 3))
+    try:
+        for k in range(3):
+            d = np.zeros(3)
+            d[k] = e
+            J[:, k] = (np.asarray(fn(t0, q, m + d)) - np.asarray(fn(t0, q, m - d))) / (2 * e)
+    except Exception:
+        return math.nan
+    return float(np.max(np.abs(J)))

@@ -104,13 +104,16 @@ class TorqueModel:
 
     ``code`` is one of the kernel torque codes (none, uniform gravity, user
     callback), ``constants`` the gravity constants ``M g cm`` (body frame), and
-    ``callback`` the compiled C callback of a user torque. Build one with
+    ``callback`` the compiled C callback of a user torque (``function`` the user's own
+    ``@njit`` function, which the Python side calls to check it and to report its
+    errors). Build one with
     :meth:`none`, :meth:`gravity` or :meth:`user`.
     """
 
     code: int = TORQUE_NONE
     constants: tuple[float, float, float] = (0.0, 0.0, 0.0)
     callback: object = None
+    function: object = None
 
     @classmethod
     def none(cls) -> TorqueModel:
@@ -124,7 +127,7 @@ class TorqueModel:
     @classmethod
     def user(cls, torque) -> TorqueModel:
         """A numba ``@njit`` function ``torque(t, q, L) -> (3,)`` (compiled once per process)."""
-        return cls(TORQUE_USER, callback=_callback(torque))
+        return cls(TORQUE_USER, callback=_callback(torque), function=torque)
 
 
 class Scene:

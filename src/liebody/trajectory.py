@@ -29,6 +29,13 @@ class Trajectory:
         up); the samples stop before it. ``None`` for a complete run.
     info : dict
         Choices made at set-up (axis ordering, base of a composition, ...).
+    status : str
+        ``"complete"``; ``"failed"`` (a non-finite state, a failed implicit solve or a
+        failing torque: the samples stop before the failing step); ``"interrupted"``
+        (Ctrl-C: the samples computed so far).
+
+    The arrays are read-only: derived quantities (``orientation``, energies, ...) are
+    computed from them once and stay valid.
     """
 
     t: np.ndarray
@@ -39,6 +46,15 @@ class Trajectory:
     dt: float
     failed_at: float | None = None
     info: dict = field(default_factory=dict)
+    status: str = "complete"
+
+    def __post_init__(self) -> None:
+        for name in ("t", "q", "L"):
+            arr = getattr(self, name)
+            if arr.flags.writeable:
+                arr = arr.view()
+                arr.flags.writeable = False
+                object.__setattr__(self, name, arr)
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -118,7 +134,8 @@ class Trajectory:
         return euler.unwrap(angles) if unwrap else angles
 
     def __repr__(self) -> str:
-        status = "complete" if self.failed_at is None else f"failed at t={self.failed_at:g}"
+        status = (f"failed at t={self.failed_at:g}" if self.failed_at is not None
+                  else self.status)
         return (f"Trajectory(method={self.method.name!r}, dt={self.dt:g}, samples={len(self)}, "
                 f"t=[{self.t[0] if len(self) else 0:g}, {self.t[-1] if len(self) else 0:g}], "
                 f"{status})")

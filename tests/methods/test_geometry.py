@@ -199,6 +199,7 @@ def test_long_run_invariants_geometric(name, hlw):
 
 
 @pytest.mark.long
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # rk4's |q| drifts: the point
 def test_long_run_baselines_drift(hlw):
     scene, L0 = hlw
     h = 0.05

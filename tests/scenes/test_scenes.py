@@ -79,6 +79,7 @@ def test_capabilities_are_declared_and_validated():
         liebody.Capabilities(dissipative=True)
 
 
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # euler's |q| grows
 def test_a_subclassed_top_works_with_every_method_that_handles_tops():
     """``class MyTop(HeavyTop)`` is a heavy top to every method: same numbers, same methods."""
 

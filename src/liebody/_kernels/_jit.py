@@ -18,7 +18,7 @@ from __future__ import annotations
 from numba import njit
 
 #: Options every kernel is compiled with.
-OPTIONS: dict = {"cache": True}
+OPTIONS: dict = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 def jit(*args, **extra):

@@ -34,6 +34,8 @@ returns how far it got, so the caller can report it.
 
 from __future__ import annotations
 
+import math
+
 from liebody._kernels._jit import jit
 from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import (
@@ -85,11 +87,13 @@ from liebody._kernels.stages import (
     STATUS_NO_CONVERGENCE,
     STATUS_NONFINITE,
     STATUS_OK,
+    STATUS_TORQUE,
 )
 from liebody._kernels.torque import damping_flow, torque_value
 
-#: fixed-point iterations allowed to the implicit (adjoint) kick
-KICK_MAX_ITERATIONS = 100
+#: iterations allowed to the implicit (adjoint) kick: fixed point, then Newton
+KICK_FIXED_POINT = 50
+KICK_NEWTON = 30
 
 
 # ------------------------------------------------------------------ stage groups
@@ -99,28 +103,77 @@ KICK_MAX_ITERATIONS = 100
 
 
 @jit
+def _torque(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn):
+    """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
+    n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
+    return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
+
+
+@jit
 def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     """KICK (exact flow of an orientation-only torque) or KICK_IMPLICIT.
 
-    The implicit kick ``m' = m + tau torque(t, q, m')`` is the adjoint of the explicit
-    one, so that explicit kick - free flow - implicit kick is a symmetric step for
-    torques that depend on ``m``; its fixed point is iterated to round-off.
+    The implicit kick solves ``k = m + tau N(t, q, k)``: the adjoint of the explicit one,
+    so that explicit kick - free flow - implicit kick is a symmetric step for torques
+    that depend on ``m``. Fixed-point iteration first (cheap, converges when
+    ``tau |dN/dm| < 1``), then Newton with a finite-difference Jacobian (stiff torques
+    such as strong damping), each to round-off.
     """
     tk = int(p[P_TORQUE])
     c1, c2, c3 = p[P_C1], p[P_C2], p[P_C3]
+    n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
+    if not ok:
+        return w, x, y, z, m1, m2, m3, STATUS_TORQUE
+    e1, e2, e3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3  # the explicit kick
     if kind == KICK:
-        n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
-        return w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3, STATUS_OK
-    k1, k2, k3 = m1, m2, m3
-    for _ in range(KICK_MAX_ITERATIONS):
-        n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3, torque_fn)
+        return w, x, y, z, e1, e2, e3, STATUS_OK
+    k1, k2, k3 = e1, e2, e3
+    scale = abs(m1) + abs(m2) + abs(m3)
+    for _ in range(KICK_FIXED_POINT):
+        n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3, torque_fn)
+        if not ok:
+            return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
         d = abs(j1 - k1) + abs(j2 - k2) + abs(j3 - k3)
         k1, k2, k3 = j1, j2, j3
         if d <= 8e-16 * (abs(k1) + abs(k2) + abs(k3)) + 1e-300:
             return w, x, y, z, k1, k2, k3, STATUS_OK
-        if not (d < 1e300):
+        if not (d < 1e3 * (scale + 1e-300)):
+            break  # diverging: the torque is too stiff for the fixed point at this step
+    # Newton on G(k) = k - m - tau N(k), from the explicit kick
+    k1, k2, k3 = e1, e2, e3
+    for _ in range(KICK_NEWTON):
+        n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3, torque_fn)
+        if not ok:
+            return w, x, y, z, m1, m2, m3, STATUS_TORQUE
+        g1, g2, g3 = k1 - m1 - tau * n1, k2 - m2 - tau * n2, k3 - m3 - tau * n3
+        size = abs(k1) + abs(k2) + abs(k3) + 1e-300
+        if abs(g1) + abs(g2) + abs(g3) <= 8e-16 * size:
+            return w, x, y, z, k1, k2, k3, STATUS_OK
+        # J = 1 - tau dN/dk, by forward differences
+        e = 1.5e-8 * size
+        a1, a2, a3, ok1 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1 + e, k2, k3, torque_fn)
+        b1, b2, b3, ok2 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2 + e, k3, torque_fn)
+        d1, d2, d3, ok3 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3 + e, torque_fn)
+        if not (ok1 and ok2 and ok3):
+            return w, x, y, z, m1, m2, m3, STATUS_TORQUE
+        f = tau / e
+        j11, j21, j31 = 1.0 - f * (a1 - n1), -f * (a2 - n2), -f * (a3 - n3)
+        j12, j22, j32 = -f * (b1 - n1), 1.0 - f * (b2 - n2), -f * (b3 - n3)
+        j13, j23, j33 = -f * (d1 - n1), -f * (d2 - n2), 1.0 - f * (d3 - n3)
+        det = (j11 * (j22 * j33 - j23 * j32) - j12 * (j21 * j33 - j23 * j31)
+               + j13 * (j21 * j32 - j22 * j31))
+        if det == 0.0 or not (abs(det) < math.inf):
             break
+        s1 = (g1 * (j22 * j33 - j23 * j32) - j12 * (g2 * j33 - j23 * g3)
+              + j13 * (g2 * j32 - j22 * g3)) / det
+        s2 = (j11 * (g2 * j33 - j23 * g3) - g1 * (j21 * j33 - j23 * j31)
+              + j13 * (j21 * g3 - g2 * j31)) / det
+        s3 = (j11 * (j22 * g3 - g2 * j32) - j12 * (j21 * g3 - g2 * j31)
+              + g1 * (j21 * j32 - j22 * j31)) / det
+        k1, k2, k3 = k1 - s1, k2 - s2, k3 - s3
+        if abs(s1) + abs(s2) + abs(s3) <= 4e-16 * size:
+            return w, x, y, z, k1, k2, k3, STATUS_OK
     return w, x, y, z, m1, m2, m3, STATUS_KICK_NO_CONVERGENCE
 
 
@@ -240,20 +293,25 @@ def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, t
 
 # ------------------------------------------------------------------ the loop
 @jit(inline="always")
-def _loop(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every, merge_ends,
-          state, q_out, m_out, torque_fn):
-    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h`` from ``t0``.
+def _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
+          final, state, ctl, q_out, m_out, torque_fn):
+    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
-    ``family`` (a ``stages.F_*`` code) is a compile-time constant. The state after
-    every ``save_every``-th step, and after the last step, is written to consecutive
-    rows of ``q_out`` / ``m_out`` (row 0 is the first save *after* the start). ``state``
-    is updated in place with the last state reached. ``torque_fn`` is the user torque
-    callback (``torque.TORQUE_SIG``) or ``None``.
+    ``family`` (a ``stages.F_*`` code) is a compile-time constant. The run may be cut
+    into slices (calls) of any length without changing a bit of the result: the clock
+    is ``t = (step0 + step) h`` with ``step0`` the steps done before this call, and
+    ``ctl`` (int64, in place) carries across calls the steps left until the next save
+    (``ctl[0]``, start a run with ``save_every``) and whether the first stage of the next
+    step was already applied, merged into the last stage of this one (``ctl[1]``, start
+    with 0). Every ``save_every``-th step of the run, and the last step of the last slice
+    (``final``), is written to consecutive rows of ``q_out`` / ``m_out``. ``state`` is
+    updated in place. ``torque_fn`` is the user torque callback
+    (``torque.TORQUE_SIG``) or ``None``.
 
-    Returns ``(steps_done, n_saved, status)``. On a non-finite state or a failed
-    implicit solve the loop stops and ``state`` holds the last finite state, the one
-    after ``steps_done`` steps (for methods with merged end stages it may already
-    contain the first stage of the failed step); the caller decides how to report it.
+    Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed implicit
+    solve or a torque that fails, the loop stops and ``state`` holds the last good
+    state, the one after ``steps_done`` steps (for methods with merged end stages it
+    may already contain the first stage of the failed step).
     """
     ns = kinds.shape[0]
     for j in range(ns):  # every kind must be one the family runs
@@ -262,13 +320,13 @@ def _loop(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every,
     w, x, y, z = state[0], state[1], state[2], state[3]
     m1, m2, m3 = state[4], state[5], state[6]
     last = ns - 1
-    pending = False  # first stage of this step already applied (merged into the previous one)
+    until_save = ctl[0]  # countdown: no integer division in the loop
+    pending = ctl[1] != 0  # first stage of this step already applied
     n_saved = 0
-    until_save = save_every  # countdown: no integer division in the loop
     for step in range(n_steps):
         gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
         status = STATUS_OK
-        t = t0 + step * h  # clock at the start of the step (no accumulated rounding)
+        t = (step0 + step) * h  # clock at the start of the step (no accumulated rounding)
         j0 = 0
         if pending:
             j0 = 1
@@ -281,7 +339,7 @@ def _loop(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every,
                 break
             t += clock[j] * h
         until_save -= 1
-        save_now = until_save == 0 or step == n_steps - 1
+        save_now = until_save == 0 or (final and step == n_steps - 1)
         if status == STATUS_OK:
             if ns > 1 and merge_ends and not save_now:
                 tau = (coefs[last] + coefs[0]) * h
@@ -308,28 +366,22 @@ def _loop(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every,
             n_saved += 1
     state[0], state[1], state[2], state[3] = w, x, y, z
     state[4], state[5], state[6] = m1, m2, m3
+    ctl[0] = until_save
+    ctl[1] = 1 if pending else 0
     return n_steps, n_saved, STATUS_OK
-
 
 
 def _runner(family: int):
     """The driver compiled for one family (``family`` is a compile-time constant)."""
 
     @jit
-    def run(kinds, axes, coefs, clock, params, h, t0, n_steps, save_every, merge_ends, state,
-            q_out, m_out, torque_fn):
-        return _loop(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every,
-                     merge_ends, state, q_out, m_out, torque_fn)
+    def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every, final,
+            state, ctl, q_out, m_out, torque_fn):
+        return _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps,
+                     save_every, final, state, ctl, q_out, m_out, torque_fn)
 
     return run
 
 
 #: family code -> its driver (compiled on first call, cached on disk)
 RUNNERS = {family: _runner(family) for family in FAMILIES}
-
-
-def run(family, kinds, axes, coefs, clock, params, h, t0, n_steps, save_every, merge_ends,
-        state, q_out, m_out, torque_fn):
-    """Run a stage table with the driver of its ``family`` (see :func:`_loop`)."""
-    return RUNNERS[family](kinds, axes, coefs, clock, params, h, t0, n_steps, save_every,
-                           merge_ends, state, q_out, m_out, torque_fn)

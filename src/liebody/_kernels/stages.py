@@ -63,8 +63,9 @@ TORQUE_USER = 2  # the user's callback (the driver's torque_fn argument)
 STATUS_OK = 0
 STATUS_NONFINITE = 1  # the state became non-finite
 STATUS_NO_CONVERGENCE = 2  # DMV's implicit equation was not solved
-STATUS_KICK_NO_CONVERGENCE = 3  # the implicit (adjoint) kick's fixed point was not found
+STATUS_KICK_NO_CONVERGENCE = 3  # the implicit (adjoint) kick's equation was not solved
 STATUS_BAD_STAGE = 4  # a stage kind the family does not run (a bug in a plan)
+STATUS_TORQUE = 5  # the torque was not a finite 3-vector (a user torque raised or gave NaN)
 
 
 class Kind(NamedTuple):

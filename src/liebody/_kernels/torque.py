@@ -27,9 +27,14 @@ TORQUE_SIG = types.UniTuple(types.float64, 3)(
 def adapt_user_torque(user):
     """Wrap a user ``@njit`` function ``torque(t, q, L) -> (3,)`` as a :data:`TORQUE_SIG` callback.
 
-    The wrapper builds the ``q`` and ``L`` arrays for each call (two small
-    allocations per torque evaluation, the price of the friendly signature).
+    The wrapper builds the ``q`` and ``L`` arrays for each call (two small allocations
+    per torque evaluation, the price of the friendly signature). A callback cannot
+    raise, so a torque that raises, or returns anything but three numbers, yields NaN:
+    the driver stops at that step (``STATUS_TORQUE``) and the Python side calls the
+    torque again to raise its error.
     """
+    import math
+
     import numpy as np
 
     @cfunc(TORQUE_SIG)
@@ -38,8 +43,13 @@ def adapt_user_torque(user):
         q[0], q[1], q[2], q[3] = w, x, y, z
         L = np.empty(3)
         L[0], L[1], L[2] = m1, m2, m3
-        tau = user(t, q, L)
-        return float(tau[0]), float(tau[1]), float(tau[2])
+        try:
+            tau = np.asarray(user(t, q, L), dtype=np.float64)
+        except Exception:
+            return math.nan, math.nan, math.nan
+        if tau.ndim != 1 or tau.shape[0] != 3:
+            return math.nan, math.nan, math.nan
+        return tau[0], tau[1], tau[2]
 
     return adapter
 

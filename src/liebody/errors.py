@@ -1,0 +1,66 @@
+"""Exceptions and warnings of liebody: nothing fails silently, nothing computed is lost.
+
+A run that cannot be completed raises an :class:`IntegrationError` (or, on Ctrl-C,
+:class:`IntegrationInterrupted`) that carries the samples computed before it stopped
+as ``.trajectory``, with the step and time where it stopped. A run that completes but
+whose result should not be trusted (a state that became non-finite, an invariant the
+method should keep that left its tolerance) warns.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ConvergenceError", "IntegrationError", "IntegrationInterrupted",
+           "InvariantWarning", "TorqueError"]
+
+
+class IntegrationError(RuntimeError):
+    """A run stopped before its end.
+
+    Attributes
+    ----------
+    trajectory : liebody.Trajectory or None
+        The samples saved before the failing step (the initial state at least).
+    step : int or None
+        The step that failed (0-based: ``step`` steps were completed).
+    t : float or None
+        The time at the start of the failing step.
+    """
+
+    def __init__(self, message: str, trajectory=None, step: int | None = None,
+                 t: float | None = None) -> None:
+        super().__init__(message)
+        self.trajectory = trajectory
+        self.step = step
+        self.t = t
+
+
+class ConvergenceError(IntegrationError):
+    """An implicit equation (RATTLE/DMV's, or the implicit kick of a torque that depends
+    on ``L``) was not solved at some step."""
+
+
+class TorqueError(IntegrationError):
+    """A user torque raised, or returned something other than three finite numbers.
+
+    The torque's own exception, where there is one, is the ``__cause__``.
+    """
+
+
+class IntegrationInterrupted(KeyboardInterrupt):
+    """Ctrl-C (``KeyboardInterrupt``) during a run: the samples computed so far are kept.
+
+    Catching ``KeyboardInterrupt`` catches it too. Attributes as :class:`IntegrationError`.
+    """
+
+    def __init__(self, message: str, trajectory=None, step: int | None = None,
+                 t: float | None = None) -> None:
+        super().__init__(message)
+        self.trajectory = trajectory
+        self.step = step
+        self.t = t
+
+
+class InvariantWarning(RuntimeWarning):
+    """A run completed, but an invariant its method should keep (or ``|q| = 1``) has left
+    its tolerance by the end: the step is too large for the scene, or the method is a
+    baseline that does not keep it."""
