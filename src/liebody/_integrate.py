@@ -312,7 +312,7 @@ class _Run:
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
         runner = RUNNERS[plan.family]
-        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, plan.merge_ends)
+        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0], plan.merge_ends)
         state = np.concatenate([self.q0, self.m0])
         ctl = np.array([self.save_every, 0], dtype=np.int64)
         done = saved = 0

@@ -138,12 +138,19 @@ class Method:
         return self.handles.accepts(scene.capabilities)
 
     def plan(self, scene, m0, h: float) -> P.Plan:
-        """The method's stage table for ``scene``, initial body momentum ``m0`` and step ``h``."""
+        """The method's stage table for one body: ``scene``, initial momentum ``m0`` ``(3,)``
+        and step ``h`` (``params`` has a body axis of length 1)."""
+        (_, plan), = self.plans(scene, np.asarray(m0, dtype=float).reshape(1, 3), h)
+        return plan
+
+    def plans(self, scene, m0, h: float) -> list[tuple[np.ndarray, P.Plan]]:
+        """The stage tables for a batch of bodies (``m0`` ``(N, 3)``, and the scene's
+        parameters broadcast against it): one per group of bodies that share the step's
+        structure, with the indices of its bodies."""
         try:
-            stages, info = self.recipe.stages(scene, np.asarray(m0, dtype=float), float(h))
+            return P.plan_groups(self.recipe, P.Bodies.of(scene, m0), float(h))
         except ValueError as exc:  # a recipe's refusal: say which method refused
             raise ValueError(f"{self.name}: {exc}") from None
-        return P.compile_plan(stages, info)
 
 
 # ----------------------------------------------------------------------------------------

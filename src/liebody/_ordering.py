@@ -93,6 +93,44 @@ def orbit_samples(moments: np.ndarray, m0: np.ndarray, n: int = 3) -> np.ndarray
     return np.sqrt(u)
 
 
+def orbit_segments(moments: np.ndarray, m0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`orbit_samples` for many orbits at once: ``(N, 3, 3)`` samples and a mask.
+
+    Row ``i`` holds three points equally spaced in ``u = m^2`` along the orbit of
+    ``m0[i]`` for the moments ``moments[i]``; ``point[i]`` is true where the orbit is a
+    single point (its three samples are then that point).
+    """
+    inv = 1.0 / np.asarray(moments, dtype=float)
+    u0 = np.asarray(m0, dtype=float) ** 2
+    d = _cross(np.ones_like(inv), inv)
+    dn = np.linalg.norm(d, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = d / dn[:, None]
+        bound = -u0 / d
+    lo = np.max(np.where(d > 1e-14, bound, -np.inf), axis=-1)
+    hi = np.min(np.where(d < -1e-14, bound, np.inf), axis=-1)
+    point = ((dn == 0.0) | ~np.any(u0, axis=-1) | ~(np.isfinite(lo) & np.isfinite(hi))
+             | (hi <= lo))
+    lo, hi = np.where(point, 0.0, lo), np.where(point, 0.0, hi)
+    d = np.where(point[:, None], 0.0, d)
+    s = lo[:, None] + (hi - lo)[:, None] * np.array([0.0, 0.5, 1.0])  # (N, 3)
+    u = np.clip(u0[:, None, :] + s[:, :, None] * d[:, None, :], 0.0, None)
+    return np.sqrt(u), point
+
+
+def _quadratic_range(f0, f1, f2):
+    """Range over ``[0, 1]`` of the quadratic through ``f(0), f(1/2), f(1)``."""
+    a = 2.0 * (f0 - 2.0 * f1 + f2)  # f(s) = a s^2 + b s + f0
+    b = f2 - f0 - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(a != 0.0, -b / (2.0 * a), -1.0)
+    inside = (s > 0.0) & (s < 1.0)
+    fv = np.where(inside, f0 + s * (b + a * s), f0)
+    hi = np.maximum(np.maximum(f0, f2), fv)
+    lo = np.minimum(np.minimum(f0, f2), fv)
+    return hi - lo
+
+
 def energy_error_constants(pieces: list[np.ndarray], moments, m0) -> np.ndarray:
     """``max - min`` of ``H3`` over the orbit of ``m0``, for a batch of splittings.
 
@@ -108,15 +146,7 @@ def energy_error_constants(pieces: list[np.ndarray], moments, m0) -> np.ndarray:
     if samples.shape[0] == 1:
         return np.zeros(batch[0].shape[0])
     f0, f1, f2 = np.moveaxis(h3(batch, samples), -1, 0)  # at s = 0, 1/2, 1
-    a = 2.0 * (f0 - 2.0 * f1 + f2)  # f(s) = a s^2 + b s + f0
-    b = f2 - f0 - a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(a != 0.0, -b / (2.0 * a), -1.0)
-    inside = (s > 0.0) & (s < 1.0)
-    fv = np.where(inside, f0 + s * (b + a * s), f0)
-    hi = np.maximum(np.maximum(f0, f2), fv)
-    lo = np.minimum(np.minimum(f0, f2), fv)
-    return hi - lo
+    return _quadratic_range(f0, f1, f2)
 
 
 def energy_error_constant(pieces: list[np.ndarray], moments, m0) -> float:
@@ -171,13 +201,11 @@ def _best(pieces_of, moments: tuple, u0: tuple) -> tuple[tuple[int, int, int], f
 
     Cached on (splitting family, moments, ``m0^2``): the orbit, hence the choice,
     depends on nothing else, and repeated runs from one initial state skip the set-up.
+    The same arithmetic as :func:`best_orderings` (one body), so a body of an ensemble
+    gets the choice it gets alone.
     """
-    m0 = np.sqrt(np.array(u0))
-    per_ordering = [pieces_of(moments, v) for v in ORDERINGS]
-    levels = [np.array([p[i] for p in per_ordering]) for i in range(len(per_ordering[0]))]
-    scores = energy_error_constants(levels, moments, m0)
-    k = int(np.argmin(scores))
-    return ORDERINGS[k], float(scores[k])
+    k, scores = _best_rows(pieces_of, np.array([moments]), np.sqrt(np.array([u0])))
+    return ORDERINGS[int(k[0])], float(scores[0])
 
 
 def _key(moments, m0) -> tuple[tuple, tuple]:
@@ -195,3 +223,46 @@ def best_axis_ordering(moments, m0) -> tuple[tuple[int, int, int], float]:
 def best_sr2_variant(moments, m0) -> tuple[tuple[int, int, int], float]:
     """The SR2 variant with the smallest energy-error constant (0 for a symmetric body)."""
     return _best(sr2_pieces, *_key(moments, m0))
+
+
+def _levels(pieces_of, moments: np.ndarray) -> list[np.ndarray]:
+    """The pieces of every ordering for every body: level ``l`` has shape ``(6, N, 3)``."""
+    n = moments.shape[0]
+    inv = 1.0 / moments
+    if pieces_of is axis_pieces:
+        levels = [np.zeros((6, n, 3)) for _ in range(3)]
+        for o, order in enumerate(ORDERINGS):
+            for lev, k in zip(levels, order, strict=True):
+                lev[o, :, k] = inv[:, k]
+        return levels
+    if pieces_of is sr2_pieces:
+        R, S = np.zeros((6, n, 3)), np.zeros((6, n, 3))
+        for o, (a, b, c) in enumerate(ORDERINGS):
+            R[o, :, b] = inv[:, b] - inv[:, a]
+            S[o] = inv[:, a, None]
+            S[o, :, c] += inv[:, c] - inv[:, a]
+        return [R, S]
+    raise ValueError(f"unknown splitting family {pieces_of!r}")  # pragma: no cover
+
+
+def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`best_axis_ordering` (``pieces_of = axis_pieces``) or :func:`best_sr2_variant`
+    (``sr2_pieces``) for many bodies at once: the index into :data:`ORDERINGS` and the
+    energy-error constant of each body, arrays ``(N,)``."""
+    moments = np.atleast_2d(np.asarray(moments, dtype=float))
+    m0 = np.atleast_2d(np.asarray(m0, dtype=float))
+    if moments.shape[0] == 1 and m0.shape[0] == 1:  # one body: the cached route
+        order, score = _best(pieces_of, *_key(moments[0], m0[0]))
+        return np.array([ORDERINGS.index(order)]), np.array([score])
+    moments, m0 = np.broadcast_arrays(moments, m0)
+    return _best_rows(pieces_of, moments, np.abs(m0))
+
+
+def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray):
+    samples, point = orbit_segments(moments, m0)
+    levels = _levels(pieces_of, moments)  # each (6, N, 3)
+    f = h3([lev[:, :, None, :] for lev in levels], samples[None])  # (6, N, 3)
+    scores = _quadratic_range(f[..., 0], f[..., 1], f[..., 2])
+    scores = np.where(point[None, :], 0.0, scores)
+    k = np.argmin(scores, axis=0)
+    return k, scores[k, np.arange(k.size)]

@@ -39,13 +39,95 @@ __all__ = ["AxisSplitting", "Baseline", "BestSplitting", "Composition", "DMVFlow
 
 
 # ----------------------------------------------------------------------------------------
+# the bodies a plan is made for
+# ----------------------------------------------------------------------------------------
+
+#: symmetry classes of a body (exact equality: RigidBody has made equal moments equal)
+ASYMMETRIC, SPHERICAL = -1, 3  # 0, 1, 2: symmetric about that axis
+
+
+@dataclass(frozen=True)
+class Bodies:
+    """What the recipes read of a scene and its initial state, for ``N >= 1`` bodies.
+
+    Every array has a leading body axis: one body is ``N = 1``, an ensemble any ``N``;
+    the recipes are written once for both.
+    """
+
+    moments: np.ndarray  # (N, 3)
+    m0: np.ndarray  # (N, 3)
+    weight_arm: np.ndarray  # (N, 3): the torque constants (uniform gravity: M g cm)
+    eps: np.ndarray  # (N,): dissipation strength
+    capabilities: object
+    free_flow: str
+    torque_code: int
+
+    @classmethod
+    def of(cls, scene, m0) -> Bodies:
+        """The bodies of ``scene`` (its parameters may carry a leading body axis) and the
+        initial momenta ``m0`` (``(3,)`` or ``(N, 3)``), broadcast together."""
+        model = scene.torque_model()
+        m0 = np.asarray(m0, dtype=float)
+        moments = np.asarray(scene.moments, dtype=float)
+        c = np.asarray(model.constants, dtype=float)
+        eps = np.asarray(scene.dissipation, dtype=float)
+        n = np.broadcast_shapes(m0.shape[:-1], moments.shape[:-1], c.shape[:-1], eps.shape)
+        size = int(np.prod(n)) if n else 1
+
+        def rows(a, width):
+            return np.ascontiguousarray(np.broadcast_to(a, n + (width,)).reshape(size, width))
+
+        return cls(rows(moments, 3), rows(m0, 3), rows(c, 3),
+                   np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)),
+                   scene.capabilities, scene.free_flow, model.code)
+
+    def __len__(self) -> int:
+        return self.moments.shape[0]
+
+    def take(self, idx) -> Bodies:
+        return replace(self, moments=self.moments[idx], m0=self.m0[idx],
+                       weight_arm=self.weight_arm[idx], eps=self.eps[idx])
+
+    @property
+    def symmetry(self) -> np.ndarray:
+        """``(N,)``: the symmetry axis (0, 1, 2), :data:`SPHERICAL` or :data:`ASYMMETRIC`."""
+        I0, I1, I2 = self.moments.T
+        out = np.full(len(self), ASYMMETRIC)
+        out[I1 == I2] = 0
+        out[I0 == I2] = 1
+        out[I0 == I1] = 2
+        out[(I0 == I1) & (I1 == I2)] = SPHERICAL
+        return out
+
+
+def combine(*codes) -> np.ndarray:
+    """One integer key per body from small non-negative integer codes (each < 16)."""
+    key = np.zeros(np.broadcast_shapes(*(np.shape(c) for c in codes)), dtype=np.int64)
+    for c in codes:
+        key = key * 16 + np.asarray(c, dtype=np.int64)
+    return key
+
+
+def split(key: int, n: int) -> tuple[int, ...]:
+    """The ``n`` codes of a key made by :func:`combine`."""
+    out = []
+    for _ in range(n):
+        key, c = divmod(int(key), 16)
+        out.append(c)
+    return tuple(reversed(out))
+
+
+# ----------------------------------------------------------------------------------------
 # stages
 # ----------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Stage:
-    """One stage of a step: a map of ``kinds`` run for ``coef * h``.
+    """One stage of a step for a group of bodies: a map of ``kind`` run for ``coef * h``.
+
+    The structure (``kind``, ``coef``, ``clock``, ``axis``) is common to the group; the
+    parameters are arrays with a leading body axis (scalars broadcast).
 
     Attributes
     ----------
@@ -71,11 +153,11 @@ class Stage:
     coef: float
     clock: float = 0.0
     axis: int = 0
-    rate: float = 0.0
-    moments: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rate: object = 0.0
+    moments: object = (0.0, 0.0, 0.0)
     torque: int = S.TORQUE_NONE
-    c: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    eps: float = 0.0
+    c: object = (0.0, 0.0, 0.0)
+    eps: object = 0.0
 
     def __post_init__(self) -> None:
         if self.kind not in S.KINDS:
@@ -83,38 +165,34 @@ class Stage:
         if self.axis not in (0, 1, 2):
             raise ValueError(f"stage axis must be 0, 1 or 2, got {self.axis!r}")
 
-    def row(self) -> list[float]:
-        """The parameter row (the named slots of :mod:`~liebody._kernels.stages`)."""
-        p = [0.0] * S.N_PARAMS
-        p[S.P_I1], p[S.P_I2], p[S.P_I3] = (float(v) for v in self.moments)
-        p[S.P_RATE] = float(self.rate)
-        p[S.P_TORQUE] = float(self.torque)
-        p[S.P_C1], p[S.P_C2], p[S.P_C3] = (float(v) for v in self.c)
-        p[S.P_EPS] = float(self.eps)
+    def rows(self, n: int) -> np.ndarray:
+        """The parameter rows ``(n, N_PARAMS)`` (the named slots of ``stages``)."""
+        p = np.zeros((n, S.N_PARAMS))
+        p[:, [S.P_I1, S.P_I2, S.P_I3]] = np.broadcast_to(self.moments, (n, 3))
+        p[:, S.P_RATE] = np.broadcast_to(self.rate, (n,))
+        p[:, S.P_TORQUE] = float(self.torque)
+        p[:, [S.P_C1, S.P_C2, S.P_C3]] = np.broadcast_to(self.c, (n, 3))
+        p[:, S.P_EPS] = np.broadcast_to(self.eps, (n,))
         return p
 
     def scaled(self, g: float) -> Stage:
         """The stage run for ``g`` times as long (its clock advance scaled alike)."""
         return replace(self, coef=self.coef * g, clock=self.clock * g)
 
-    def same_flow(self, other: Stage) -> bool:
-        """Whether ``other`` is a flow of the same Hamiltonian (so the two may be merged)."""
-        return (S.KINDS[self.kind].mergeable and other.kind == self.kind
-                and other.axis == self.axis and other.row() == self.row())
-
     @property
     def identity(self) -> bool:
-        """A stage that does nothing: zero time, or a rotation at zero rate."""
-        return self.coef == 0.0 or (S.KINDS[self.kind].rotation and self.rate == 0.0)
+        """A stage that does nothing: zero time, or a rotation at zero rate for every body."""
+        return self.coef == 0.0 or (S.KINDS[self.kind].rotation
+                                    and bool(np.all(np.asarray(self.rate) == 0.0)))
 
 
-def rotation(axis: int, coef: float, rate: float, recurring: bool = False,
+def rotation(axis: int, coef: float, rate, recurring: bool = False,
              clock: float = 0.0) -> Stage:
     """Exact flow of ``rate * m_axis^2 / 2``; ``recurring`` when ``m_axis`` is constant."""
     return Stage(S.AXIS_RECURRING if recurring else S.AXIS, coef, clock, axis=axis, rate=rate)
 
 
-def sphere(coef: float, rate: float, clock: float = 0.0) -> Stage:
+def sphere(coef: float, rate, clock: float = 0.0) -> Stage:
     """Exact flow of ``rate * |m|^2 / 2``."""
     return Stage(S.SPHERE, coef, clock, rate=rate)
 
@@ -126,11 +204,12 @@ def sphere(coef: float, rate: float, clock: float = 0.0) -> Stage:
 
 @dataclass
 class Plan:
-    """A method made concrete for one scene, initial state and step: a stage table.
+    """A method made concrete for a group of bodies, their initial state and step.
 
-    ``family`` is the driver family (``stages.F_*``) that runs it; ``info`` records the
-    set-up choices (axis ordering, base of a composition, ...), shown as
-    ``Trajectory.info``.
+    ``params`` has a leading body axis ``(N, s, N_PARAMS)``; the structure (``kinds``,
+    ``axes``, ``coefs``, ``clock``, ``merge_ends``) is common. ``family`` is the driver
+    family (``stages.F_*``) that runs it; ``info`` records the set-up choices (axis
+    ordering, base of a composition, ...), shown as ``Trajectory.info``.
     """
 
     kinds: np.ndarray
@@ -147,13 +226,14 @@ class Plan:
         return int(self.kinds.shape[0])
 
 
-def compile_plan(stages: list[Stage], info: dict | None = None) -> Plan:
-    """Build a :class:`Plan`: drop identity stages, merge adjacent flows of one Hamiltonian."""
+def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1) -> Plan:
+    """Build a :class:`Plan` for ``n`` bodies: drop identity stages, merge adjacent flows
+    of one Hamiltonian (for every body of the group)."""
     merged: list[Stage] = []
     for st in stages:
         if st.identity:
             continue  # e.g. the R rotation of SR2 on a symmetric body
-        if merged and merged[-1].same_flow(st):
+        if merged and _mergeable(merged[-1], st, n):
             both = replace(merged[-1], coef=merged[-1].coef + st.coef,
                            clock=merged[-1].clock + st.clock)
             merged.pop()
@@ -163,18 +243,24 @@ def compile_plan(stages: list[Stage], info: dict | None = None) -> Plan:
         merged.append(st)
     if not merged:  # a flow that does nothing (e.g. every rate zero)
         merged = [sphere(1.0, 0.0, clock=1.0)]
-    first, last = merged[0], merged[-1]
     kinds = np.array([s.kind for s in merged], dtype=np.int64)
+    params = np.stack([s.rows(n) for s in merged], axis=1)  # (n, s, P)
     return Plan(
         kinds=kinds,
         axes=np.array([s.axis for s in merged], dtype=np.int64),
         coefs=np.array([s.coef for s in merged], dtype=np.float64),
         clock=np.array([s.clock for s in merged], dtype=np.float64),
-        params=np.array([s.row() for s in merged], dtype=np.float64).reshape(-1, S.N_PARAMS),
-        merge_ends=len(merged) > 1 and first.same_flow(last),
+        params=np.ascontiguousarray(params),
+        merge_ends=len(merged) > 1 and _mergeable(merged[0], merged[-1], n),
         family=S.family_of(kinds),
         info=dict(info or {}),
     )
+
+
+def _mergeable(a: Stage, b: Stage, n: int) -> bool:
+    """Flows of the same Hamiltonian for every body: same mergeable kind, axis, parameters."""
+    return (S.KINDS[a.kind].mergeable and a.kind == b.kind and a.axis == b.axis
+            and np.array_equal(a.rows(n), b.rows(n)))
 
 
 def compose(base: list[Stage], coefficients) -> list[Stage]:
@@ -183,97 +269,105 @@ def compose(base: list[Stage], coefficients) -> list[Stage]:
 
 
 # ----------------------------------------------------------------------------------------
-# the free-body pieces
+# the free-body pieces (every function takes Bodies: arrays with a leading body axis)
 # ----------------------------------------------------------------------------------------
 
 
-def _moments(body) -> tuple[float, float, float]:
-    return tuple(float(v) for v in body.moments)
+def axis_stages(b: Bodies, ordering, sym: int) -> list[Stage]:
+    """``a(h/2) b(h/2) c(h) b(h/2) a(h/2)``: the 5-rotation splitting in ``ordering``.
 
-
-def _recurring(body, k: int) -> bool:
-    """``m_k`` is a constant of the free motion: ``k`` is the symmetry axis (or a sphere)."""
-    return body.is_spherical or body.symmetry_axis == k
-
-
-def axis_stages(body, ordering) -> list[Stage]:
-    """``a(h/2) b(h/2) c(h) b(h/2) a(h/2)``: the 5-rotation splitting in ``ordering``."""
-    a, b, c = ordering
-    I = _moments(body)
+    ``sym`` is the group's symmetry class: rotations about a symmetry axis (or any axis
+    of a sphere) recur every step with the same angle and are applied in increment form.
+    """
+    a, bb, c = ordering
+    inv = 1.0 / b.moments
 
     def rot(k, coef, clock=0.0):
-        return rotation(k, coef, 1.0 / I[k], _recurring(body, k), clock)
+        return rotation(k, coef, inv[:, k], sym in (k, SPHERICAL), clock)
 
-    return [rot(a, 0.5), rot(b, 0.5), rot(c, 1.0, clock=1.0), rot(b, 0.5), rot(a, 0.5)]
+    return [rot(a, 0.5), rot(bb, 0.5), rot(c, 1.0, clock=1.0), rot(bb, 0.5), rot(a, 0.5)]
 
 
-def sr2_stages(body, variant) -> list[Stage]:
+def sr2_stages(b: Bodies, variant, sym: int) -> list[Stage]:
     """``R(h/2) S(h) R(h/2)`` with ``S`` the exact flow of a symmetric body (two stages)."""
-    a, b, c = variant
-    I = _moments(body)
-    rate_r, rate_c = _ordering.sr2_rates(I, variant)
-    return [rotation(b, 0.5, rate_r, _recurring(body, b)),
-            sphere(1.0, 1.0 / I[a], clock=1.0),
-            rotation(c, 1.0, rate_c, _recurring(body, c)),
-            rotation(b, 0.5, rate_r, _recurring(body, b))]
+    a, bb, c = variant
+    inv = 1.0 / b.moments
+    rate_r, rate_c = inv[:, bb] - inv[:, a], inv[:, c] - inv[:, a]
+    return [rotation(bb, 0.5, rate_r, sym in (bb, SPHERICAL)),
+            sphere(1.0, inv[:, a], clock=1.0),
+            rotation(c, 1.0, rate_c, sym in (c, SPHERICAL)),
+            rotation(bb, 0.5, rate_r, sym in (bb, SPHERICAL))]
 
 
-def symmetric_flow_stages(body) -> tuple[list[Stage], str] | None:
-    """The exact flow of a spherical or symmetric body (trig only), or ``None``.
+def symmetric_flow_stages(b: Bodies, sym: int) -> tuple[list[Stage], str]:
+    """The exact flow of spherical or symmetric bodies (trig only).
 
     A symmetric body (symmetry axis ``s``, transverse moment ``I_perp``) flows as a
     sphere rotation at rate ``1/I_perp`` and a rotation about ``e_s`` at rate
     ``1/I_s - 1/I_perp``; the two commute, so this is exact.
     """
-    I = _moments(body)
-    if body.is_spherical:
-        return [sphere(1.0, 3.0 / sum(I), clock=1.0)], "sphere"
-    s = body.symmetry_axis
-    if s is None:
-        return None
-    i_perp = 0.5 * (I[(s + 1) % 3] + I[(s + 2) % 3])
+    I = b.moments
+    if sym == SPHERICAL:
+        return [sphere(1.0, 3.0 / I.sum(axis=1), clock=1.0)], "sphere"
+    i_perp = 0.5 * (I[:, (sym + 1) % 3] + I[:, (sym + 2) % 3])
     return [sphere(1.0, 1.0 / i_perp, clock=1.0),
-            rotation(s, 1.0, 1.0 / I[s] - 1.0 / i_perp, recurring=True)], "symmetric"
+            rotation(sym, 1.0, 1.0 / I[:, sym] - 1.0 / i_perp, recurring=True)], "symmetric"
 
 
-def exact_stage(body) -> Stage:
-    return Stage(S.EXACT, 1.0, 1.0, moments=_moments(body))
+def exact_stage(b: Bodies) -> Stage:
+    return Stage(S.EXACT, 1.0, 1.0, moments=b.moments)
 
 
-def scene_free_flow(scene, m0, ordering=None) -> tuple[list[Stage], dict]:
-    """The free flow a splitting uses as its drift between kicks on ``scene``.
+# choices of the drift between kicks (scene_free_flow)
+_DRIFT_SYMMETRIC, _DRIFT_EXACT, _DRIFT_AXES = 0, 1, 2
+
+
+def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
+    """Per body, the drift a splitting uses between kicks: see :func:`drift_stages`."""
+    sym = b.symmetry
+    use_sym = (sym != ASYMMETRIC) & ((b.free_flow != "axes") | (sym == SPHERICAL))
+    choice = np.where(use_sym, _DRIFT_SYMMETRIC,
+                      _DRIFT_EXACT if b.free_flow == "exact" else _DRIFT_AXES)
+    if ordering is None:
+        order, _ = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+    else:
+        order = np.full(len(b), _ordering.ORDERINGS.index(tuple(ordering)))
+    order = np.where(choice == _DRIFT_AXES, order, 0)
+    return combine(choice, sym + 1, order)
+
+
+def drift_stages(b: Bodies, key: int) -> tuple[list[Stage], dict]:
+    """The free flow a splitting uses as its drift between kicks.
 
     A spherical or symmetric body gets its exact flow (trig functions only), unless
     the scene asks for ``free_flow="axes"``; otherwise ``free_flow="exact"`` gives the
     elliptic exact flow and ``"auto"``/``"axes"`` the 5-rotation axis splitting (the
     ordering given, or the best for the orbit of ``m0``).
     """
-    body = scene.body
-    sym = symmetric_flow_stages(body)
-    if sym is not None and (scene.free_flow != "axes" or body.is_spherical):
-        stages, kind = sym
+    choice, sym1, order = split(key, 3)
+    sym = sym1 - 1
+    if choice == _DRIFT_SYMMETRIC:
+        stages, kind = symmetric_flow_stages(b, sym)
         return stages, {"free_flow": kind}
-    if scene.free_flow == "exact":
-        return [exact_stage(body)], {"free_flow": "elliptic"}
-    if ordering is None:
-        ordering, _ = _ordering.best_axis_ordering(body.moments, m0)
-    return axis_stages(body, ordering), {"free_flow": f"axes {tuple(ordering)}"}
+    if choice == _DRIFT_EXACT:
+        return [exact_stage(b)], {"free_flow": "elliptic"}
+    ordering = _ordering.ORDERINGS[order]
+    return axis_stages(b, ordering, sym), {"free_flow": f"axes {ordering}"}
 
 
-def scene_step(scene, drift: list[Stage], info: dict) -> tuple[list[Stage], dict]:
+def scene_step(b: Bodies, drift: list[Stage], info: dict) -> tuple[list[Stage], dict]:
     """``side(h/2) drift(h) side(h/2)`` with the scene's torque kick or dissipation step.
 
     An orientation-only torque gets exact kicks on both sides (merged between steps);
     a torque that depends on the momentum closes the step with the adjoint (implicit)
     kick, so the step stays symmetric; dissipation gets its second-order step ``D``.
     """
-    caps = scene.capabilities
+    caps = b.capabilities
     info = dict(info)
     if caps.dissipative:
-        side = Stage(S.DAMP, 0.5, moments=_moments(scene.body), eps=float(scene.dissipation))
+        side = Stage(S.DAMP, 0.5, moments=b.moments, eps=b.eps)
         return [side, *drift, side], info
-    model = scene.torque_model()
-    kick = Stage(S.KICK, 0.5, torque=model.code, c=model.constants)
+    kick = Stage(S.KICK, 0.5, torque=b.torque_code, c=b.weight_arm)
     closing = kick
     if "momentum" in caps.torque:
         closing = replace(kick, kind=S.KICK_IMPLICIT)
@@ -287,32 +381,61 @@ def scene_step(scene, drift: list[Stage], info: dict) -> tuple[list[Stage], dict
 
 
 class Recipe:
-    """How a method builds one step: ``stages(scene, m0, h) -> (stages, info)``."""
+    """How a method builds one step for a group of bodies.
+
+    ``keys(b, h)`` gives each body an integer: bodies with equal keys share the step's
+    structure (the stage kinds and axes, e.g. the same axis ordering), and
+    ``stages(b, h, key)`` builds that structure for such a group, with per-body
+    parameters; it returns the stages and the set-up choices (``info``).
+    """
 
     #: composition coefficients applied to the base (``(1.0,)`` for a base method)
     coefficients: tuple[float, ...] = (1.0,)
 
-    def stages(self, scene, m0, h: float) -> tuple[list[Stage], dict]:  # pragma: no cover
+    def keys(self, b: Bodies, h: float) -> np.ndarray:
+        return np.zeros(len(b), dtype=np.int64)
+
+    def stages(self, b: Bodies, h: float, key: int) -> tuple[list[Stage], dict]:  # pragma: no cover
         raise NotImplementedError
 
 
 class FreeFlowRecipe(Recipe):
     """A free-body flow; on a torqued or damped scene, the drift of ``side-drift-side``.
 
-    Subclasses give :meth:`free` (the method on a free body) and may override
-    :meth:`drift` (the free flow between kicks; by default the same).
+    Subclasses give :meth:`free_keys` / :meth:`free` (the method on a free body) and may
+    override :meth:`drift_keys` / :meth:`drift` (the free flow between kicks; by default
+    the same).
     """
 
-    def free(self, scene, m0, h: float) -> tuple[list[Stage], dict]:  # pragma: no cover
+    def free_keys(self, b: Bodies, h: float) -> np.ndarray:
+        return np.zeros(len(b), dtype=np.int64)
+
+    def free(self, b: Bodies, h: float, key: int):  # pragma: no cover
         raise NotImplementedError
 
-    def drift(self, scene, m0, h: float) -> tuple[list[Stage], dict]:
-        return self.free(scene, m0, h)
+    def drift_keys(self, b: Bodies, h: float) -> np.ndarray:
+        return self.free_keys(b, h)
 
-    def stages(self, scene, m0, h: float) -> tuple[list[Stage], dict]:
-        if scene.capabilities.free:
-            return self.free(scene, m0, h)
-        return scene_step(scene, *self.drift(scene, m0, h))
+    def drift(self, b: Bodies, h: float, key: int):
+        return self.free(b, h, key)
+
+    def keys(self, b, h):
+        return self.free_keys(b, h) if b.capabilities.free else self.drift_keys(b, h)
+
+    def stages(self, b, h, key):
+        if b.capabilities.free:
+            return self.free(b, h, key)
+        return scene_step(b, *self.drift(b, h, key))
+
+
+def _ordering_keys(b: Bodies, pieces_of, fixed=None):
+    """Per body the symmetry class and the index of the ordering (best or ``fixed``)."""
+    if fixed is None:
+        order, score = _ordering.best_orderings(pieces_of, b.moments, b.m0)
+    else:
+        order = np.full(len(b), _ordering.ORDERINGS.index(tuple(fixed)))
+        score = None
+    return combine(b.symmetry + 1, order), score
 
 
 @dataclass(frozen=True)
@@ -321,7 +444,7 @@ class AxisSplitting(FreeFlowRecipe):
 
     ``ordering=None`` chooses the ordering whose ``h^2`` energy-error term varies least
     over the orbit (Fassò 2003); a fixed ``(a, b, c)`` is used as given. On torqued
-    scenes the drift is :func:`scene_free_flow`.
+    scenes the drift is :func:`drift_stages`.
     """
 
     ordering: tuple[int, int, int] | None = None
@@ -330,18 +453,28 @@ class AxisSplitting(FreeFlowRecipe):
         if self.ordering is not None and sorted(self.ordering) != [0, 1, 2]:
             raise ValueError(f"ordering must be a permutation of (0, 1, 2), got {self.ordering}")
 
-    def _ordering(self, scene, m0) -> tuple[tuple[int, int, int], dict]:
-        if self.ordering is not None:
-            return tuple(self.ordering), {"axis_ordering": tuple(self.ordering)}
-        order, score = _ordering.best_axis_ordering(scene.moments, m0)
-        return order, {"axis_ordering": order, "energy_error_constant": score}
+    def free_keys(self, b, h):
+        return _ordering_keys(b, _ordering.axis_pieces, self.ordering)[0]
 
-    def free(self, scene, m0, h):
-        order, info = self._ordering(scene, m0)
-        return axis_stages(scene.body, order), info
+    def free(self, b, h, key):
+        sym1, order = split(key, 2)
+        ordering = _ordering.ORDERINGS[order]
+        info = {"axis_ordering": ordering}
+        if self.ordering is None:
+            _, score = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+            info["energy_error_constant"] = _one(score)
+        return axis_stages(b, ordering, sym1 - 1), info
 
-    def drift(self, scene, m0, h):
-        return scene_free_flow(scene, m0, self.ordering)
+    def drift_keys(self, b, h):
+        return drift_keys(b, self.ordering)
+
+    def drift(self, b, h, key):
+        return drift_stages(b, key)
+
+
+def _one(values: np.ndarray):
+    """A per-body value for ``info``: the number itself for one body, else the array."""
+    return float(values[0]) if len(values) == 1 else values
 
 
 @dataclass(frozen=True)
@@ -352,12 +485,17 @@ class SR2Splitting(FreeFlowRecipe):
     ordering. Free bodies only (its drift is not defined between kicks).
     """
 
-    def free(self, scene, m0, h):
-        variant, score = _ordering.best_sr2_variant(scene.moments, m0)
-        return sr2_stages(scene.body, variant), {"sr2_variant": variant,
-                                                  "energy_error_constant": score}
+    def free_keys(self, b, h):
+        return _ordering_keys(b, _ordering.sr2_pieces)[0]
 
-    def drift(self, scene, m0, h):
+    def free(self, b, h, key):
+        sym1, order = split(key, 2)
+        variant = _ordering.ORDERINGS[order]
+        _, score = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+        return sr2_stages(b, variant, sym1 - 1), {"sr2_variant": variant,
+                                                  "energy_error_constant": _one(score)}
+
+    def drift(self, b, h, key):
         raise ValueError("SR2 has no drift between kicks: it integrates free bodies only")
 
 
@@ -365,20 +503,32 @@ class SR2Splitting(FreeFlowRecipe):
 class BestSplitting(FreeFlowRecipe):
     """The better second-order base for the orbit: :class:`AxisSplitting` or :class:`SR2Splitting`.
 
-    On torqued scenes the axis splitting's drift (:func:`scene_free_flow`).
+    On torqued scenes the axis splitting's drift (:func:`drift_stages`).
     """
 
-    def free(self, scene, m0, h):
-        order, s_axis = _ordering.best_axis_ordering(scene.moments, m0)
-        variant, s_sr2 = _ordering.best_sr2_variant(scene.moments, m0)
-        if s_sr2 <= s_axis:
-            return sr2_stages(scene.body, variant), {
-                "base": "sr2", "sr2_variant": variant, "energy_error_constant": s_sr2}
-        return axis_stages(scene.body, order), {
-            "base": "splitting2", "axis_ordering": order, "energy_error_constant": s_axis}
+    def free_keys(self, b, h):
+        axis_order, s_axis = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+        sr2_order, s_sr2 = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+        use_sr2 = s_sr2 <= s_axis
+        return combine(use_sr2, b.symmetry + 1, np.where(use_sr2, sr2_order, axis_order))
 
-    def drift(self, scene, m0, h):
-        return scene_free_flow(scene, m0)
+    def free(self, b, h, key):
+        use_sr2, sym1, order = split(key, 3)
+        ordering = _ordering.ORDERINGS[order]
+        if use_sr2:
+            _, score = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+            return sr2_stages(b, ordering, sym1 - 1), {
+                "base": "sr2", "sr2_variant": ordering, "energy_error_constant": _one(score)}
+        _, score = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+        return axis_stages(b, ordering, sym1 - 1), {
+            "base": "splitting2", "axis_ordering": ordering,
+            "energy_error_constant": _one(score)}
+
+    def drift_keys(self, b, h):
+        return drift_keys(b)
+
+    def drift(self, b, h, key):
+        return drift_stages(b, key)
 
 
 @dataclass(frozen=True)
@@ -396,30 +546,35 @@ class DMVFlow(FreeFlowRecipe):
         if self.order not in (2, 4, 6, 8, 10):
             raise ValueError(f"DMV order must be 2, 4, 6, 8 or 10, got {self.order}")
 
-    def free(self, scene, m0, h):
+    def free(self, b, h, key):
         if self.order == 2:
-            return [Stage(S.DMV, 1.0, 1.0, moments=_moments(scene.body))], {}
-        mod = dmv_modified_moments(scene.moments, m0, h, self.order)
-        if not all(np.isfinite(v) and v > 0.0 for v in mod):
+            return [Stage(S.DMV, 1.0, 1.0, moments=b.moments)], {}
+        mod = dmv_modified_moments(b.moments, b.m0, h, self.order)
+        bad = ~np.all(np.isfinite(mod) & (mod > 0.0), axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            which = "" if len(b) == 1 else f" for {int(bad.sum())} of {len(b)} bodies (e.g. " \
+                                           f"body {i})"
             raise ValueError(
-                f"dt = {h:g} is too large for preprocessed DMV of order {self.order}: its "
-                f"modified moments {tuple(round(v, 6) for v in mod)} are not all positive "
-                f"(the h^2 and h^4 corrections of Hairer-Vilmart's series dominate); "
-                f"reduce dt")
-        return [Stage(S.DMV, 1.0, 1.0, moments=mod)], {"modified_moments": mod}
+                f"dt = {h:g} is too large for preprocessed DMV of order {self.order}{which}: "
+                f"the modified moments {tuple(round(float(v), 6) for v in mod[i])} are not "
+                f"all positive (the h^2 and h^4 corrections of Hairer-Vilmart's series "
+                f"dominate); reduce dt")
+        info = {"modified_moments": tuple(float(v) for v in mod[0]) if len(b) == 1 else mod}
+        return [Stage(S.DMV, 1.0, 1.0, moments=mod)], info
 
-    def drift(self, scene, m0, h):
+    def drift(self, b, h, key):
         if self.order != 2:
             raise ValueError("preprocessed DMV integrates free bodies only")
-        return [Stage(S.DMV, 1.0, 1.0, moments=_moments(scene.body))], {"free_flow": "dmv"}
+        return [Stage(S.DMV, 1.0, 1.0, moments=b.moments)], {"free_flow": "dmv"}
 
 
 @dataclass(frozen=True)
 class ExactFlow(FreeFlowRecipe):
     """The exact free-body flow as one stage (elliptic functions; trig when symmetric)."""
 
-    def free(self, scene, m0, h):
-        return [exact_stage(scene.body)], {}
+    def free(self, b, h, key):
+        return [exact_stage(b)], {}
 
 
 @dataclass(frozen=True)
@@ -433,8 +588,11 @@ class Composition(Recipe):
     base: Recipe
     coefficients: tuple[float, ...]
 
-    def stages(self, scene, m0, h):
-        base, info = self.base.stages(scene, m0, h)
+    def keys(self, b, h):
+        return self.base.keys(b, h)
+
+    def stages(self, b, h, key):
+        base, info = self.base.stages(b, h, key)
         return compose(base, self.coefficients), info
 
 
@@ -448,10 +606,22 @@ class Baseline(Recipe):
         if self.kind not in (S.EULER, S.RK4, S.LIE_EULER, S.RKMK4):
             raise ValueError(f"not a baseline stage kind: {self.kind!r}")
 
-    def stages(self, scene, m0, h):
-        model = scene.torque_model()
-        return [Stage(self.kind, 1.0, 1.0, moments=_moments(scene.body), torque=model.code,
-                      c=model.constants, eps=float(scene.dissipation))], {}
+    def stages(self, b, h, key):
+        return [Stage(self.kind, 1.0, 1.0, moments=b.moments, torque=b.torque_code,
+                      c=b.weight_arm, eps=b.eps)], {}
+
+
+def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, Plan]]:
+    """The recipe's plans for the bodies ``b``: one per group of bodies whose steps share
+    a structure, with the indices of its bodies."""
+    keys = recipe.keys(b, h)
+    out = []
+    for key in np.unique(keys):
+        idx = np.flatnonzero(keys == key)
+        sub = b if len(idx) == len(b) else b.take(idx)
+        stages, info = recipe.stages(sub, h, int(key))
+        out.append((idx, compile_plan(stages, info, len(idx))))
+    return out
 
 
 # ----------------------------------------------------------------------------------------
@@ -459,20 +629,21 @@ class Baseline(Recipe):
 # ----------------------------------------------------------------------------------------
 
 
-def dmv_modified_moments(moments, m0, h: float, order: int) -> tuple[float, float, float]:
-    """Hairer–Vilmart modified moments ``1/I_i^mod = CSS / I_i + CDD``.
+def dmv_modified_moments(moments, m0, h: float, order: int) -> np.ndarray:
+    """Hairer–Vilmart modified moments ``1/I_i^mod = CSS / I_i + CDD``, for ``(N, 3)`` bodies.
 
     ``CSS = 1 + sum_k s_k(N, H)`` and ``CDD = sum_k d_k(N, H)``, with homogeneous
     polynomials of degree ``k = 1 .. order/2 - 1`` in ``N = h^2 |m|^2 / 2`` and
     ``H = h^2 sum m_i^2 / (2 I_i)`` whose coefficients are the rational functions of the
     moments of Hairer & Vilmart (J. Phys. A 39 (2006) 13225, Table 1, and their
     DMV10 routine for orders 8 and 10). They depend only on the invariants, so they
-    are computed once per run.
+    are computed once per run. Returns ``(N, 3)``.
     """
-    I1, I2, I3 = (float(v) for v in moments)
-    m = np.asarray(m0, dtype=float)
-    N = 0.5 * h * h * float(m @ m)
-    H = 0.5 * h * h * float(np.sum(m * m / np.array([I1, I2, I3])))
+    moments = np.atleast_2d(np.asarray(moments, dtype=float))
+    m = np.atleast_2d(np.asarray(m0, dtype=float))
+    I1, I2, I3 = moments[:, 0], moments[:, 1], moments[:, 2]
+    N = 0.5 * h * h * np.sum(m * m, axis=1)
+    H = 0.5 * h * h * np.sum(m * m / moments, axis=1)
     det = I1 * I2 * I3
     det2, det3, det4 = det**2, det**3, det**4
     s1, s2, s3, s4 = (I1**k + I2**k + I3**k for k in (1, 2, 3, 4))
@@ -522,4 +693,4 @@ def dmv_modified_moments(moments, m0, h: float, order: int) -> tuple[float, floa
                    + 34.0 * det2 * i3) / (22680.0 * det3) * N * H**3
                 + (165.0 * s1 - det * t13 - 9.0 * t21 - 145.0 * det * i2)
                 / (45360.0 * det2) * H**4)
-    return tuple(1.0 / (css / I + cdd) for I in (I1, I2, I3))
+    return np.stack([1.0 / (css / I + cdd) for I in (I1, I2, I3)], axis=1)

@@ -13,7 +13,7 @@ import pytest
 
 import liebody
 from liebody import _ordering
-from liebody._plan import axis_stages, compile_plan
+from liebody._plan import ASYMMETRIC, Bodies, axis_stages, compile_plan
 from support import drive, kernel_run, rotation_distance
 
 GEOMETRIC = [m.name for m in liebody.methods()
@@ -81,7 +81,7 @@ def test_energy_error_matches_modified_hamiltonian_prediction(hlw):
     for order in [(0, 1, 2), (1, 0, 2), (2, 1, 0)]:
         pieces = _ordering.axis_pieces(scene.moments, order)
         predicted = h * h * _ordering.energy_error_constant(pieces, scene.moments, L0)
-        plan = compile_plan(axis_stages(scene.body, order))
+        plan = compile_plan(axis_stages(Bodies.of(scene, L0), order, ASYMMETRIC))
         n = 20000
         q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
         state = np.concatenate([[1.0, 0, 0, 0], L0])
