@@ -62,14 +62,23 @@ CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free s
 ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
 
 
-def _initial_momentum(body, L0, omega0) -> np.ndarray:
+def _initial_momentum(scene, L0, omega0) -> np.ndarray:
+    """Body angular momentum ``(3,)`` or ``(N, 3)`` from ``L0`` or ``omega0``."""
     if (L0 is None) == (omega0 is None):
         raise ValueError("give exactly one of L0 (body angular momentum) and omega0 "
                          "(body angular velocity)")
     if L0 is not None:
-        name, m = "L0", as_float_array("L0", L0, shape=(3,)).copy()
+        name, m = "L0", np.array(as_float_array("L0", L0, last_dim=3))
     else:
-        name, m = "omega0", body.moments * as_float_array("omega0", omega0, shape=(3,))
+        omega = as_float_array("omega0", omega0, last_dim=3)
+        _check_batch("omega0", omega)
+        try:
+            m = np.asarray(scene.moments) * omega
+        except ValueError:
+            raise ValueError(f"omega0 of shape {omega.shape} does not broadcast against the "
+                             f"scene's moments of shape {np.shape(scene.moments)}") from None
+        name = "omega0"
+    _check_batch(name, m)
     size = float(np.max(np.abs(m)))
     if not size <= MAX_MOMENTUM:
         raise ValueError(
@@ -77,6 +86,12 @@ def _initial_momentum(body, L0, omega0) -> np.ndarray:
             f"{MAX_MOMENTUM:.0e}; the kinetic energy |L|^2/(2 I) would overflow float64. "
             f"Rescale the units of time or inertia")
     return m
+
+
+def _check_batch(name: str, a: np.ndarray) -> None:
+    if a.ndim > 2:
+        raise ValueError(f"{name} must be one state (..., shape ({a.shape[-1]},)) or one per "
+                         f"body, shape (N, {a.shape[-1]}); got shape {a.shape}")
 
 
 def _step_count(dt: float, steps, t_end) -> int:
@@ -101,6 +116,11 @@ def _step_count(dt: float, steps, t_end) -> int:
     return int(k)
 
 
+def _per_sample(bodies: int) -> int:
+    """Bytes a sample takes: its time, and ``q``, ``L`` of every body."""
+    return SAMPLE_BYTES if bodies == 1 else 8 + (SAMPLE_BYTES - 8) * bodies
+
+
 def _available_memory() -> int | None:
     """Bytes of memory available to a new allocation (Linux ``MemAvailable``), or None."""
     try:
@@ -116,22 +136,29 @@ def _available_memory() -> int | None:
         return None
 
 
-def _sample_times(n_steps: int, save_every: int, dt: float) -> np.ndarray:
-    """Times of the saved samples: steps 0, save_every, 2 save_every, ..., and the last."""
+def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> np.ndarray:
+    """Times of the saved samples: steps 0, save_every, 2 save_every, ..., and the last.
+
+    Refuses (``ValueError``) a run whose samples for ``bodies`` bodies do not fit in the
+    available memory, saying which ``save_every`` would.
+    """
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
     n_samples = n_saves + 1
-    need = n_samples * SAMPLE_BYTES
+    per = _per_sample(bodies)
+    need = n_samples * per
     avail = _available_memory()
     if avail is not None and need > avail:
         # suggest a save_every whose samples take at most half the available memory
-        fit = max(1, avail // (2 * SAMPLE_BYTES) - 1)
+        fit = max(1, avail // (2 * per) - 1)
         every = max(save_every + 1, math.ceil(n_steps / fit))
         kept = n_steps // every + (1 if n_steps % every else 0) + 1
+        what = "samples" if bodies == 1 else f"samples of {bodies:,} bodies"
+        hint = "" if fit > 1 else "; or keep the final states only (save_every=None)"
         raise ValueError(
-            f"save_every = {save_every:,} keeps {n_samples:.4g} samples of "
-            f"{SAMPLE_BYTES} B ({need / 1e9:.3g} GB), more than the {avail / 1e9:.3g} GB "
+            f"save_every = {save_every:,} keeps {n_samples:.4g} {what} of "
+            f"{per} B ({need / 1e9:.3g} GB), more than the {avail / 1e9:.3g} GB "
             f"of memory available; save_every = {every:,} keeps {kept:,} samples "
-            f"({kept * SAMPLE_BYTES / 1e9:.3g} GB)")
+            f"({kept * per / 1e9:.3g} GB){hint}")
     try:
         t = np.arange(n_samples, dtype=np.float64)
     except MemoryError:  # pragma: no cover - the check above should have refused it
@@ -143,8 +170,37 @@ def _sample_times(n_steps: int, save_every: int, dt: float) -> np.ndarray:
     return t
 
 
+def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE):
+    """Sizes of consecutive slices covering ``total`` units, each aiming at
+    :data:`SLICE_SECONDS` of wall time (the first, of ``first`` units, measures the rate).
+
+    A run is cut into such slices so that Ctrl-C, which Python sees only between calls
+    into compiled code, stops it within about a second; ``progress`` shows a tqdm bar.
+    """
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, unit=unit, unit_scale=True)
+    done, size = 0, max(1, first)
+    try:
+        while done < total:
+            n = min(size, total - done)
+            start = time.perf_counter()
+            yield n
+            done += n
+            if bar is not None:
+                bar.update(n)
+            rate = n / max(time.perf_counter() - start, 1e-6)
+            size = int(min(max(rate * SLICE_SECONDS, 1), 16 * size))
+    finally:
+        if bar is not None:
+            bar.close()
+
+
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
-              t_end=None, method=None, save_every=1, progress: bool = False) -> Trajectory:
+              t_end=None, method=None, save_every=1, progress: bool = False,
+              threads: int | None = None) -> Trajectory:
     """Integrate a rigid-body scene with a fixed step.
 
     Parameters
@@ -152,10 +208,12 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     scene
         What to integrate, e.g. :class:`liebody.FreeBody`.
     q0
-        Initial orientation, scalar-first unit quaternion (body -> space). Its norm
-        must be 1 within 1e-10 (normalise with :func:`liebody.quaternion.normalize`).
+        Initial orientation, scalar-first unit quaternion (body -> space), ``(4,)``, or
+        one per body ``(N, 4)``. Its norm must be 1 within 1e-10 (normalise with
+        :func:`liebody.quaternion.normalize`).
     L0, omega0
-        Exactly one: initial body-frame angular momentum or angular velocity.
+        Exactly one: initial body-frame angular momentum or angular velocity, ``(3,)``
+        or one per body ``(N, 3)``.
     dt
         Step size (> 0). For ``method="exact"`` it only sets the output spacing.
     steps, t_end
@@ -168,10 +226,25 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         stepping (and no discretisation error) is spent on it.
     save_every
         Keep every ``save_every``-th step (plus the start and the final state); memory
-        is exactly the saved samples, 64 bytes each. A run whose samples do not fit in
-        the available memory is refused up front, with the ``save_every`` that would fit.
+        is exactly the saved samples, 64 bytes each (56 per body and 8 for the time in
+        an ensemble). ``None`` keeps the start and the final state only. A run whose
+        samples do not fit in the available memory is refused up front, with the
+        ``save_every`` that would fit.
     progress
         Show a tqdm progress bar.
+    threads
+        Threads an ensemble runs on (``None``: every core; the kernels release the GIL).
+
+    Ensembles
+    ---------
+    Give ``q0`` ``(N, 4)`` and/or ``L0``/``omega0`` ``(N, 3)`` (a single state
+    broadcasts), or a scene whose parameters have a body axis (moments ``(N, 3)``, a
+    heavy top's ``mass`` ``(N,)`` and ``cm`` ``(N, 3)``, ...): one call integrates the
+    ``N`` bodies. The trajectory's arrays then keep a leading body axis, ``q``
+    ``(N, n, 4)``, ``L`` ``(N, n, 3)``, ``t`` ``(n,)``, and every diagnostic works per
+    body. Each body's numbers are those of a one-body call, bit for bit. Failures are
+    per body: a body that fails stops (``failed_at[i]``, its later samples NaN, one
+    warning for all) and the others finish.
 
     Returns
     -------
@@ -202,24 +275,52 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
-    body = scene.body
     q_init = _as_unit_q("q0", q0)
-    if q_init.shape != (4,):
-        raise ValueError(f"q0 must have shape (4,), got {q_init.shape}")
-    m_init = _initial_momentum(body, L0, omega0)
+    _check_batch("q0", q_init)
+    m_init = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
     n_steps = _step_count(dt, steps, t_end)
-    save_every = as_positive_int("save_every", save_every)
+    save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
+    from liebody._ensemble import EnsembleRun, resolve_threads
+
+    threads = resolve_threads(threads)
+    n_bodies = _bodies(scene, q_init, m_init)
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
     model = scene.torque_model()
-    _check_torque(model, q_init, m_init)
-    t = _sample_times(n_steps, save_every, dt)
-    run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress)
+    if n_bodies is None:
+        _check_torque(model, q_init, m_init)
+        t = _sample_times(n_steps, save_every, dt)
+        run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress)
+    else:
+        q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
+        m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
+        _check_torque(model, q_init[0], m_init[0])
+        t = _sample_times(n_steps, save_every, dt, n_bodies)
+        run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
+                          progress, threads)
     return run.sampled() if method.sampled else run.stepped()
+
+
+def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
+    """The number of bodies of an ensemble run (``None`` for one body): the length of the
+    body axis of ``q0``, of ``L0``/``omega0`` and of the scene's parameters, broadcast."""
+    shapes = {"q0": q0.shape[:-1], "L0/omega0": m0.shape[:-1],
+              "the scene's parameters": scene_batch_shape(scene)}
+    try:
+        batch = np.broadcast_shapes(*shapes.values())
+    except ValueError:
+        told = ", ".join(f"{k} {v[0] if v else 'one body'}" for k, v in shapes.items())
+        raise ValueError(f"the numbers of bodies do not match: {told}") from None
+    return batch[0] if batch else None
+
+
+def scene_batch_shape(scene) -> tuple[int, ...]:
+    """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many."""
+    return tuple(getattr(scene, "batch_shape", ()))
 
 
 def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray) -> None:
@@ -255,30 +356,8 @@ class _Run:
         self.q_out[0], self.m_out[0] = q0, m0
         self.info: dict = {}
 
-    # -------------------------------------------------------------- slices
     def _slices(self, total: int, unit: str):
-        """Sizes of consecutive slices covering ``total`` units, each aiming at
-        :data:`SLICE_SECONDS` of wall time (the first is short, to measure the rate)."""
-        bar = None
-        if self.progress:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=total, unit=unit, unit_scale=True)
-        done, size = 0, FIRST_SLICE
-        try:
-            while done < total:
-                n = min(size, total - done)
-                start = time.perf_counter()
-                yield n
-                done += n
-                if bar is not None:
-                    bar.update(n)
-                spent = time.perf_counter() - start
-                rate = n / max(spent, 1e-6)
-                size = int(min(max(rate * SLICE_SECONDS, 1), 16 * size))
-        finally:
-            if bar is not None:
-                bar.close()
+        return time_slices(total, self.progress, unit)
 
     # -------------------------------------------------------------- the exact flow
     def sampled(self) -> Trajectory:
@@ -391,43 +470,63 @@ class _Run:
             f"a bug in its recipe")
 
     def _finish(self, traj: Trajectory) -> Trajectory:
-        """Warn when an invariant the method should keep left its tolerance by the end."""
-        problems = _invariant_problems(traj)
-        if problems:
-            warnings.warn(f"{self.method.name}: " + "; ".join(problems)
-                          + " (the step may be too large for this scene, or the method does "
-                            "not keep this invariant)", InvariantWarning, stacklevel=4)
-        return traj
+        return warn_invariants(traj, stacklevel=5)
+
+
+def warn_invariants(traj: Trajectory, stacklevel: int) -> Trajectory:
+    """Warn when an invariant the method should keep left its tolerance by the end."""
+    problems = _invariant_problems(traj)
+    if problems:
+        warnings.warn(f"{traj.method.name}: " + "; ".join(problems)
+                      + " (the step may be too large for this scene, or the method does "
+                        "not keep this invariant)", InvariantWarning, stacklevel=stacklevel)
+    return traj
 
 
 def _invariant_problems(traj: Trajectory) -> list[str]:
     """The invariants of ``traj`` that left their tolerance between its first and last
-    sample, in words (empty for a healthy run)."""
+    sample, in words (empty for a healthy run). For an ensemble, per body: the words say
+    how many bodies and give one (failed bodies are left out: they warned already)."""
     method, scene = traj.method, traj.scene
     caps = scene.capabilities
+    ens = traj.q.ndim == 3
+    q = traj.q if ens else traj.q[None]
+    L = traj.L if ens else traj.L[None]
+    ok = np.isfinite(q[:, -1]).all(axis=1) & np.isfinite(L[:, -1]).all(axis=1)
+    moments = np.broadcast_to(np.asarray(scene.moments, dtype=float), (q.shape[0], 3))
     out = []
-    qn = float(np.linalg.norm(traj.q[-1]))
-    if not abs(qn - 1.0) <= QNORM_TOL:
-        out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+
+    def report(bad, words):
+        bad = bad & ok
+        if bad.any():
+            i = int(np.argmax(bad))
+            who = f"{int(bad.sum())} of {len(bad)} bodies (e.g. body {i}): " if ens else ""
+            out.append(who + words(i))
+
+    qn = np.linalg.norm(q[:, -1], axis=1)
+    report(~(np.abs(qn - 1.0) <= QNORM_TOL),
+           lambda i: f"|q| = {qn[i]:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
     if method.keeps_casimir and not caps.torque:
-        g0, g1 = (float(np.linalg.norm(traj.L[i])) for i in (0, -1))
-        if not abs(g1 - g0) <= CASIMIR_TOL * g0:
-            out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
-                       f"relative")
+        g0, g1 = np.linalg.norm(L[:, 0], axis=1), np.linalg.norm(L[:, -1], axis=1)
+        report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
+               lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
+                         f"{CASIMIR_TOL:g} relative")
+    T0 = 0.5 * np.sum(L[:, 0] ** 2 / moments, axis=1)
+    T1 = 0.5 * np.sum(L[:, -1] ** 2 / moments, axis=1)
     if (method.symplectic or method.keeps_energy) and caps.conservative:
-        ends = traj.q[[0, -1]]
-        T = 0.5 * np.sum(traj.L[[0, -1]] ** 2 / traj.moments, axis=1)
-        V = scene.potential(ends / np.linalg.norm(ends, axis=1)[:, None])
-        e0, e1 = T + V
-        scale = T[0] + abs(V[0])
-        if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
-            out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
-                       f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
+        ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (N, 2, 4)
+        ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
+        V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[..., None]))
+        V = np.broadcast_to(V, ends.shape[:2])
+        e0, e1 = T0 + V[:, 0], T1 + V[:, 1]
+        scale = T0 + np.abs(V[:, 0])
+        report((scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
+               lambda i: f"the energy went from {e0[i]:.6g} to {e1[i]:.6g}, more than "
+                         f"{ENERGY_TOL:.0%} of its scale {scale[i]:.3g}")
     if caps.dissipative and method.keeps_casimir:
-        T = 0.5 * np.sum(traj.L[[0, -1]] ** 2 / traj.moments, axis=1)
-        if T[1] > T[0] * (1.0 + 1e-9):
-            out.append(f"the energy grew from {T[0]:.6g} to {T[1]:.6g} in a dissipative "
-                       f"scene")
+        report(T1 > T0 * (1.0 + 1e-9),
+               lambda i: f"the energy grew from {T0[i]:.6g} to {T1[i]:.6g} in a dissipative "
+                         f"scene")
     return out
 
 

@@ -19,20 +19,24 @@ class Trajectory:
     t : (n,) array
         Sample times.
     q : (n, 4) array
-        Orientation, scalar-first unit quaternions (body -> space).
+        Orientation, scalar-first unit quaternions (body -> space); ``(N, n, 4)`` for an
+        ensemble of ``N`` bodies.
     L : (n, 3) array
-        Body-frame angular momentum (principal axes).
+        Body-frame angular momentum (principal axes); ``(N, n, 3)`` for an ensemble.
     scene, method, dt
         What was integrated, how, and the step.
     failed_at : float or None
         Time of the first step that produced a non-finite state (baselines that blow
-        up); the samples stop before it. ``None`` for a complete run.
+        up); the samples stop before it. ``None`` for a complete run. For an ensemble,
+        an array ``(N,)``: the failing step's time per body, NaN for bodies that
+        completed.
     info : dict
         Choices made at set-up (axis ordering, base of a composition, ...).
     status : str
         ``"complete"``; ``"failed"`` (a non-finite state, a failed implicit solve or a
         failing torque: the samples stop before the failing step); ``"interrupted"``
-        (Ctrl-C: the samples computed so far).
+        (Ctrl-C: the samples computed so far). For an ensemble, an array ``(N,)`` per
+        body (``"failed: non-finite state"``, ...).
 
     The arrays are read-only: derived quantities (``orientation``, energies, ...) are
     computed from them once and stay valid.
@@ -60,8 +64,16 @@ class Trajectory:
         return int(self.t.shape[0])
 
     @property
+    def n_bodies(self) -> int | None:
+        """The number of bodies of an ensemble run; ``None`` for one body."""
+        return self.q.shape[0] if self.q.ndim == 3 else None
+
+    @property
     def moments(self) -> np.ndarray:
-        return self.scene.body.moments
+        """Principal moments, shaped to broadcast against ``L``: ``(3,)``, or ``(N, 1, 3)``
+        for an ensemble whose bodies differ."""
+        m = np.asarray(self.scene.moments, dtype=float)
+        return m[:, None, :] if (m.ndim == 2 and self.q.ndim == 3) else m
 
     @property
     def omega(self) -> np.ndarray:
@@ -73,6 +85,23 @@ class Trajectory:
         """``T = sum L_i^2 / (2 I_i)``."""
         return 0.5 * np.sum(self.L * self.L / self.moments, axis=-1)
 
+    def _finite(self) -> np.ndarray:
+        """Mask of the samples with a finite state (an ensemble's failed bodies have NaN
+        samples after their failure)."""
+        return np.isfinite(self.q).all(axis=-1) & np.isfinite(self.L).all(axis=-1)
+
+    def _on_finite(self, fn, width: int | None, *arrays) -> np.ndarray:
+        """``fn(*arrays)`` on the finite samples, NaN elsewhere (every sample of a one-body
+        run is finite: a run stops before a non-finite state)."""
+        mask = self._finite()
+        if mask.all():
+            return fn(*arrays)
+        shape = mask.shape + ((width,) if width else ())
+        out = np.full(shape, np.nan)
+        if mask.any():
+            out[mask] = fn(*(a[mask] for a in arrays))
+        return out
+
     @cached_property
     def orientation(self) -> np.ndarray:
         """``q / |q|``: the rotation the samples stand for (the baselines let ``|q|`` drift).
@@ -82,14 +111,15 @@ class Trajectory:
         """
         from liebody import quaternion
 
-        out = quaternion.normalize(self.q) if len(self) else self.q.copy()
+        out = (self._on_finite(quaternion.normalize, 4, self.q) if len(self)
+               else self.q.copy())
         out.flags.writeable = False
         return out
 
     @property
     def potential_energy(self) -> np.ndarray:
         """The scene's potential at the samples (zero for a free body)."""
-        return self.scene.potential(self.orientation)
+        return self._on_finite(self.scene.potential, None, self.orientation)
 
     @property
     def energy(self) -> np.ndarray:
@@ -101,15 +131,19 @@ class Trajectory:
         """Space-frame angular momentum ``R(q) L`` (constant for a free body)."""
         from liebody import quaternion
 
-        return quaternion.rotate(self.orientation, self.L) if len(self) else np.empty((0, 3))
+        if not len(self):
+            return np.empty(self.L.shape)
+        return self._on_finite(quaternion.rotate, 3, self.orientation, self.L)
 
     @property
     def omega_space(self) -> np.ndarray:
         """Space-frame angular velocity ``R(q) omega``."""
         from liebody import quaternion
 
-        return (quaternion.rotate(self.orientation, self.omega) if len(self)
-                else np.empty((0, 3)))
+        if not len(self):
+            return np.empty(self.L.shape)
+        omega = np.broadcast_to(self.omega, self.L.shape)
+        return self._on_finite(quaternion.rotate, 3, self.orientation, omega)
 
     @property
     def casimir(self) -> np.ndarray:
@@ -123,19 +157,24 @@ class Trajectory:
 
     def euler_angles(self, unwrap: bool = False) -> np.ndarray:
         """The z-x-z Euler angles ``(phi, theta, psi)`` of :mod:`liebody.euler` (Hand & Finch,
-        ch. 8), shape ``(n, 3)``.
+        ch. 8), shape ``(n, 3)`` (``(N, n, 3)`` for an ensemble).
 
-        ``unwrap=True`` removes the ``2 pi`` jumps of ``phi`` and ``psi`` for plotting
-        long histories.
+        ``unwrap=True`` removes the ``2 pi`` jumps of ``phi`` and ``psi`` along the
+        samples, for plotting long histories.
         """
         from liebody import euler
 
-        angles = euler.from_quaternion(self.orientation)
-        return euler.unwrap(angles) if unwrap else angles
+        angles = self._on_finite(euler.from_quaternion, 3, self.orientation)
+        return euler.unwrap(angles, axis=-2) if unwrap else angles
 
     def __repr__(self) -> str:
+        span = (f"t=[{self.t[0] if len(self) else 0:g}, {self.t[-1] if len(self) else 0:g}]")
+        if self.n_bodies is not None:
+            failed = int(np.sum(np.isfinite(np.asarray(self.failed_at, dtype=float))))
+            state = f"{failed} failed" if failed else str(np.asarray(self.status).flat[0])
+            return (f"Trajectory(method={self.method.name!r}, dt={self.dt:g}, "
+                    f"bodies={self.n_bodies}, samples={len(self)}, {span}, {state})")
         status = (f"failed at t={self.failed_at:g}" if self.failed_at is not None
                   else self.status)
         return (f"Trajectory(method={self.method.name!r}, dt={self.dt:g}, samples={len(self)}, "
-                f"t=[{self.t[0] if len(self) else 0:g}, {self.t[-1] if len(self) else 0:g}], "
-                f"{status})")
+                f"{span}, {status})")

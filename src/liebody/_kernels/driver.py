@@ -383,5 +383,35 @@ def _runner(family: int):
     return run
 
 
+def _batch_runner(family: int):
+    """The driver of one family for many bodies: the one-body loop run for each body.
+
+    ``params`` ``(N, s, P)``, ``state`` ``(N, 7)``, ``ctl`` ``(N, 2)``, ``q_out``
+    ``(N, S, 4)``, ``m_out`` ``(N, S, 3)``; ``saved``, ``done`` and ``status`` ``(N,)``
+    (int64, in place) count each body's saved samples and completed steps and hold its
+    status. A body whose status is not OK is skipped (it failed in an earlier slice):
+    failures are per body, the others go on. Each body's numbers are those of the
+    one-body driver, bit for bit.
+    """
+
+    @jit
+    def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
+            final, state, ctl, q_out, m_out, saved, done, status, torque_fn):
+        for i in range(state.shape[0]):
+            if status[i] != STATUS_OK:
+                continue
+            d, s, st = _loop(family, kinds, axes, coefs, clock, params[i], merge_ends, h,
+                             step0, n_steps, save_every, final, state[i], ctl[i],
+                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_fn)
+            done[i] += d
+            saved[i] += s
+            status[i] = st
+        return 0
+
+    return run
+
+
 #: family code -> its driver (compiled on first call, cached on disk)
 RUNNERS = {family: _runner(family) for family in FAMILIES}
+#: family code -> its driver for many bodies
+BATCH_RUNNERS = {family: _batch_runner(family) for family in FAMILIES}

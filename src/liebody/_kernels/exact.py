@@ -449,3 +449,28 @@ def exact_flow_rows(I, q, m, t, q_out, m_out):
         q_out[i, 0], q_out[i, 1], q_out[i, 2], q_out[i, 3] = r[0], r[1], r[2], r[3]
         m_out[i, 0], m_out[i, 1], m_out[i, 2] = r[4], r[5], r[6]
     return t.shape[0]  # a count, not the arrays: returning arrays calls back into Python
+
+
+@jit
+def exact_flow_bodies(I, q0, m0, t, q_out, m_out, status):
+    """Many bodies at many times: ``q_out[i, k], m_out[i, k]`` = flow of body ``i`` for ``t[k]``.
+
+    ``I``, ``q0``, ``m0`` ``(N, 3)``, ``(N, 4)``, ``(N, 3)``; ``t`` ``(K,)``; ``status``
+    ``(N,)`` int64: a body whose status is not 0 is skipped, and a body whose samples
+    become non-finite gets the index of its first non-finite sample plus one (so the
+    caller can keep the samples before it). Returns the number of bodies that failed.
+    """
+    failed = 0
+    for i in range(q0.shape[0]):
+        if status[i] != 0:
+            continue
+        exact_flow_times(I[i], q0[i], m0[i], t, q_out[i], m_out[i])
+        for k in range(t.shape[0]):
+            acc = (q_out[i, k, 0] + q_out[i, k, 1] + q_out[i, k, 2] + q_out[i, k, 3]
+                   + m_out[i, k, 0] + m_out[i, k, 1] + m_out[i, k, 2])
+            if not (abs(acc) < 1e308):
+                status[i] = k + 1
+                failed += 1
+                break
+    return failed
+

@@ -1,0 +1,241 @@
+"""Ensembles: :func:`liebody.integrate` for ``N`` bodies in one call.
+
+The bodies share the scene's kind and the method; their initial states (``q0`` ``(N, 4)``,
+``L0``/``omega0`` ``(N, 3)``) and the scene's parameters (moments ``(N, 3)``, a heavy
+top's mass and centre of mass, a damping strength) may differ, broadcast like numpy
+arrays. The recipe plans all bodies at once (:mod:`liebody._plan`): bodies whose steps
+share a structure (the same axis ordering, say) form a group with per-body parameters.
+Each group runs in the batch driver of its family, split into contiguous chunks of
+bodies over ``threads`` threads (the kernels release the GIL) and into time slices (so
+Ctrl-C stops it within about a second).
+
+Failures are per body: a body whose state becomes non-finite, whose implicit equation
+has no solution or whose torque fails stops there (``failed_at`` per body, its later
+samples NaN) and the others finish; one warning sums up.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from liebody._kernels import stages as S
+from liebody.errors import IntegrationInterrupted
+from liebody.trajectory import Trajectory
+
+#: a failing body's status, in words
+REASONS = {S.STATUS_NONFINITE: "non-finite state",
+           S.STATUS_NO_CONVERGENCE: "DMV equation not solved",
+           S.STATUS_KICK_NO_CONVERGENCE: "implicit kick not solved",
+           S.STATUS_TORQUE: "torque failed"}
+
+
+def resolve_threads(threads) -> int:
+    """``threads=None``: every core; else a positive integer."""
+    if threads is None:
+        return os.cpu_count() or 1
+    if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
+        raise ValueError(f"threads must be a positive integer or None (every core), "
+                         f"got {threads!r}")
+    return int(threads)
+
+
+class EnsembleRun:
+    """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
+
+    def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
+                 threads):
+        from liebody._integrate import time_slices
+
+        self.scene, self.method, self.dt = scene, method, dt
+        self.q0, self.m0 = q0, m0
+        self.n_steps, self.save_every, self.t = n_steps, save_every, t
+        self.model, self.progress = model, progress
+        self.threads = threads
+        self.slices = time_slices
+        n, k = q0.shape[0], t.shape[0]
+        self.q_out = np.empty((n, k, 4))
+        self.m_out = np.empty((n, k, 3))
+        self.q_out[:, 0], self.m_out[:, 0] = q0, m0
+        self.status = np.zeros(n, dtype=np.int64)
+        self.done = np.zeros(n, dtype=np.int64)
+        self.saved = np.zeros(n, dtype=np.int64)
+        self.info: dict = {}
+
+    @property
+    def n(self) -> int:
+        return self.q0.shape[0]
+
+    def _chunks(self, n: int) -> list[slice]:
+        """Contiguous chunks of ``n`` bodies, one per thread (at least 64 bodies each)."""
+        parts = max(1, min(self.threads, n // 64))
+        edges = np.linspace(0, n, parts + 1).round().astype(int)
+        return [slice(a, b) for a, b in itertools.pairwise(edges) if b > a]
+
+    def _map(self, pool, fn, chunks):
+        if pool is None:
+            return [fn(c) for c in chunks]
+        return [f.result() for f in [pool.submit(fn, c) for c in chunks]]
+
+    # -------------------------------------------------------------- the exact flow
+    def sampled(self) -> Trajectory:
+        from liebody._kernels.exact import exact_flow_bodies
+
+        moments = np.ascontiguousarray(np.broadcast_to(self.scene.moments, (self.n, 3)))
+        t, q, m = self.t, self.q_out, self.m_out
+        chunks = self._chunks(self.n)
+        done = 1
+        with _pool(min(self.threads, len(chunks))) as pool:
+            try:
+                for k in self.slices(len(t) - 1, self.progress, "sample", 4096 // self.n):
+                    sl = slice(done, done + k)
+                    tk = t[sl]
+
+                    def work(c, sl=sl, tk=tk):
+                        st = np.zeros(c.stop - c.start, dtype=np.int64)
+                        st[self.status[c] != 0] = -1
+                        exact_flow_bodies(moments[c], self.q0[c], self.m0[c], tk,
+                                          q[c, sl], m[c, sl], st)
+                        return c, st
+
+                    for c, st in self._map(pool, work, chunks):
+                        new = np.flatnonzero(st > 0)
+                        for i in new + c.start:
+                            first = done + int(st[i - c.start]) - 1  # the first bad sample
+                            self.status[i] = S.STATUS_NONFINITE
+                            self.done[i] = min((first - 1) * self.save_every, self.n_steps)
+                            self.saved[i] = first - 1
+                    done += k
+                    self.saved[self.status == 0] = done - 1
+            except KeyboardInterrupt:
+                self._interrupted(done)
+        self.saved[self.status == 0] = len(t) - 1
+        return self._result(len(t))
+
+    # -------------------------------------------------------------- stepping
+    def stepped(self) -> Trajectory:
+        from liebody._kernels.driver import BATCH_RUNNERS
+
+        groups = self.method.plans(self.scene, self.m0, self.dt)
+        self.info = (groups[0][1].info if len(groups) == 1
+                     else {"groups": [dict(plan.info, bodies=idx) for idx, plan in groups]})
+        work = [self._group(idx, plan, BATCH_RUNNERS[plan.family]) for idx, plan in groups]
+        chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
+        done = 0
+        with _pool(min(self.threads, len(chunks))) as pool:
+            try:
+                for k in self.slices(self.n_steps, self.progress, "step",
+                                     max(1, 4096 // self.n)):
+                    final = done + k == self.n_steps
+                    self._map(pool, lambda gc, done=done, k=k, final=final:
+                              self._run_chunk(gc[0], gc[1], done, k, final), chunks)
+                    done += k
+            except KeyboardInterrupt:
+                self._collect(work)
+                self._interrupted(1 + done // self.save_every)
+        self._collect(work)
+        return self._result(len(self.t))
+
+    def _group(self, idx, plan, runner) -> dict:
+        """A group's arrays: views of the ensemble's when its bodies are all of them."""
+        whole = len(idx) == self.n
+        sel = slice(None) if whole else idx
+        # "saved" starts at 1: the kernel writes sample 1 + (samples saved so far)
+        g = {"idx": idx, "plan": plan, "runner": runner, "whole": whole,
+             "state": np.ascontiguousarray(np.concatenate([self.q0[sel], self.m0[sel]], axis=1)),
+             "ctl": np.tile(np.array([self.save_every, 0], dtype=np.int64), (len(idx), 1)),
+             "saved": np.ones(len(idx), dtype=np.int64),
+             "done": np.zeros(len(idx), dtype=np.int64),
+             "status": np.zeros(len(idx), dtype=np.int64)}
+        if whole:
+            g["q"], g["m"] = self.q_out, self.m_out
+        else:
+            g["q"] = np.empty((len(idx),) + self.q_out.shape[1:])
+            g["m"] = np.empty((len(idx),) + self.m_out.shape[1:])
+        return g
+
+    def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
+        p = g["plan"]
+        g["runner"](p.kinds, p.axes, p.coefs, p.clock, p.params[c], p.merge_ends, self.dt,
+                    done, k, self.save_every, final, g["state"][c], g["ctl"][c], g["q"][c],
+                    g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
+                    self.model.callback)
+
+    def _collect(self, work) -> None:
+        for g in work:
+            idx = g["idx"]
+            if not g["whole"]:
+                self.q_out[idx, 1:] = g["q"][:, 1:]
+                self.m_out[idx, 1:] = g["m"][:, 1:]
+            self.status[idx] = g["status"]
+            self.done[idx] = g["done"]
+            self.saved[idx] = g["saved"] - 1
+
+    # -------------------------------------------------------------- outcomes
+    def _blank_after_failures(self, n_keep: int) -> np.ndarray:
+        """NaN every sample a failed body did not reach; its ``failed_at`` (else NaN)."""
+        failed_at = np.full(self.n, np.nan)
+        for i in np.flatnonzero(self.status != S.STATUS_OK):
+            first = 1 + int(self.saved[i])
+            self.q_out[i, first:n_keep] = np.nan
+            self.m_out[i, first:n_keep] = np.nan
+            failed_at[i] = (self.done[i] + 1) * self.dt
+        return failed_at
+
+    def _result(self, n_keep: int) -> Trajectory:
+        failed_at = self._blank_after_failures(n_keep)
+        status = np.array(["complete"] * self.n, dtype=object)
+        bad = np.flatnonzero(self.status != S.STATUS_OK)
+        for i in bad:
+            status[i] = "failed: " + REASONS.get(int(self.status[i]), "unknown")
+        if len(bad):
+            kinds = {}
+            for i in bad:
+                kinds.setdefault(status[i][8:], []).append(int(i))
+            words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
+                              for k, v in kinds.items())
+            warnings.warn(f"{self.method.name}: {len(bad)} of {self.n} bodies failed: {words}; "
+                          f"their samples stop there (NaN after; Trajectory.failed_at and "
+                          f"Trajectory.status per body), the others finished",
+                          RuntimeWarning, stacklevel=4)
+        traj = Trajectory(self.t[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
+                          self.scene, self.method, self.dt, failed_at=failed_at,
+                          info=self.info, status=status)
+        from liebody._integrate import warn_invariants
+
+        return warn_invariants(traj, stacklevel=5)
+
+    def _interrupted(self, n_keep: int):
+        n_keep = min(n_keep, len(self.t))
+        failed_at = self._blank_after_failures(n_keep)
+        status = np.array(["interrupted"] * self.n, dtype=object)
+        traj = Trajectory(self.t[:n_keep].copy(), self.q_out[:, :n_keep].copy(),
+                          self.m_out[:, :n_keep].copy(), self.scene, self.method, self.dt,
+                          failed_at=failed_at, info=self.info, status=status)
+        step = min((n_keep - 1) * self.save_every, self.n_steps)
+        raise IntegrationInterrupted(
+            f"{self.method.name}: interrupted near step {step:,} of {self.n_steps:,}; the "
+            f"{n_keep:,} samples of each of the {self.n:,} bodies computed so far are on this "
+            f"exception's .trajectory", traj, step, step * self.dt) from None
+
+
+class _pool:
+    """A thread pool for more than one chunk (none for one: no thread overhead)."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.pool = None
+
+    def __enter__(self):
+        if self.n > 1:
+            self.pool = ThreadPoolExecutor(max_workers=self.n)
+        return self.pool
+
+    def __exit__(self, *exc):
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+        return False
