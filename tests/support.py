@@ -109,7 +109,7 @@ def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: n
     ctl = np.array([1, 0], dtype=np.int64)
     return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
                                 plan.merge_ends, h, 0, n, 1, True, state, ctl, q_out, m_out,
-                                torque_fn)
+                                torque_fn, np.zeros(10), np.zeros(3))
 
 
 def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):

@@ -48,8 +48,8 @@ class EnsembleRun:
     """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 threads):
-        from liebody._integrate import time_slices
+                 threads, diagnostics=False):
+        from liebody._integrate import diagnostic_reference, time_slices
 
         self.scene, self.method, self.dt = scene, method, dt
         self.q0, self.m0 = q0, m0
@@ -65,6 +65,9 @@ class EnsembleRun:
         self.done = np.zeros(n, dtype=np.int64)
         self.saved = np.zeros(n, dtype=np.int64)
         self.info: dict = {}
+        self.diag = diagnostics
+        self.dref = diagnostic_reference(scene, model, q0, m0)
+        self.dmax = np.zeros((n, 3))
 
     @property
     def n(self) -> int:
@@ -118,12 +121,13 @@ class EnsembleRun:
 
     # -------------------------------------------------------------- stepping
     def stepped(self) -> Trajectory:
-        from liebody._kernels.driver import BATCH_RUNNERS
+        from liebody._kernels.driver import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
 
+        runners = DIAG_BATCH_RUNNERS if self.diag else BATCH_RUNNERS
         groups = self.method.plans(self.scene, self.m0, self.dt)
         self.info = (groups[0][1].info if len(groups) == 1
                      else {"groups": [dict(plan.info, bodies=idx) for idx, plan in groups]})
-        work = [self._group(idx, plan, BATCH_RUNNERS[plan.family]) for idx, plan in groups]
+        work = [self._group(idx, plan, runners[plan.family]) for idx, plan in groups]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
         done = 0
         with _pool(min(self.threads, len(chunks))) as pool:
@@ -150,7 +154,8 @@ class EnsembleRun:
              "ctl": np.tile(np.array([self.save_every, 0], dtype=np.int64), (len(idx), 1)),
              "saved": np.ones(len(idx), dtype=np.int64),
              "done": np.zeros(len(idx), dtype=np.int64),
-             "status": np.zeros(len(idx), dtype=np.int64)}
+             "status": np.zeros(len(idx), dtype=np.int64),
+             "dref": self.dref[sel], "dmax": np.zeros((len(idx), 3))}
         if whole:
             g["q"], g["m"] = self.q_out, self.m_out
         else:
@@ -160,10 +165,10 @@ class EnsembleRun:
 
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
         p = g["plan"]
-        g["runner"](p.kinds, p.axes, p.coefs, p.clock, p.params[c], p.merge_ends, self.dt,
-                    done, k, self.save_every, final, g["state"][c], g["ctl"][c], g["q"][c],
-                    g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
-                    self.model.callback)
+        g["runner"](p.kinds, p.axes, p.coefs, p.clock, p.params[c], p.merge_ends and not self.diag,
+                    self.dt, done, k, self.save_every, final, g["state"][c], g["ctl"][c],
+                    g["q"][c], g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
+                    self.model.callback, g["dref"][c], g["dmax"][c])
 
     def _collect(self, work) -> None:
         for g in work:
@@ -174,6 +179,7 @@ class EnsembleRun:
             self.status[idx] = g["status"]
             self.done[idx] = g["done"]
             self.saved[idx] = g["saved"] - 1
+            self.dmax[idx] = g["dmax"]
 
     # -------------------------------------------------------------- outcomes
     def _blank_after_failures(self, n_keep: int) -> np.ndarray:
@@ -202,9 +208,17 @@ class EnsembleRun:
                           f"their samples stop there (NaN after; Trajectory.failed_at and "
                           f"Trajectory.status per body), the others finished",
                           RuntimeWarning, stacklevel=4)
+        diag = None
+        if self.diag:
+            from liebody._integrate import diagnostics_dict
+
+            if self.method.sampled:  # the exact flow: measured on the samples
+                self.dmax = sample_diagnostics(self.dref, self.q_out, self.m_out)
+            self.dmax[self.status != S.STATUS_OK] = np.nan
+            diag = diagnostics_dict(self.dmax, False)
         traj = Trajectory(self.t[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
                           self.scene, self.method, self.dt, failed_at=failed_at,
-                          info=self.info, status=status)
+                          info=self.info, status=status, diagnostics=diag)
         from liebody._integrate import warn_invariants
 
         return warn_invariants(traj, stacklevel=5)
@@ -221,6 +235,21 @@ class EnsembleRun:
             f"{self.method.name}: interrupted near step {step:,} of {self.n_steps:,}; the "
             f"{n_keep:,} samples of each of the {self.n:,} bodies computed so far are on this "
             f"exception's .trajectory", traj, step, step * self.dt) from None
+
+
+def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The running diagnostics of the kernels (``driver._diagnose``) over saved samples:
+    ``dref`` ``(N, 10)``, ``q`` ``(N, n, 4)``, ``m`` ``(N, n, 3)`` -> ``(N, 3)``."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    n2 = w * w + x * x + y * y + z * z
+    d = dref[:, None, :]
+    T = 0.5 * np.sum(m * m * d[..., :3], axis=-1)
+    V = (d[..., 3] * 2 * (x * z - w * y) + d[..., 4] * 2 * (y * z + w * x)
+         + d[..., 5] * (w * w - x * x - y * y + z * z)) / n2
+    e = np.abs(T + V - d[..., 6]) * d[..., 7]
+    qe = np.abs(np.sqrt(n2) - 1.0)
+    le = np.abs(np.linalg.norm(m, axis=-1) - d[..., 8]) * d[..., 9]
+    return np.stack([np.max(e, axis=1), np.max(qe, axis=1), np.max(le, axis=1)], axis=1)
 
 
 class _pool:

@@ -200,7 +200,7 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
 
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, progress: bool = False,
-              threads: int | None = None) -> Trajectory:
+              threads: int | None = None, diagnostics: bool = False) -> Trajectory:
     """Integrate a rigid-body scene with a fixed step.
 
     Parameters
@@ -234,6 +234,15 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         Show a tqdm progress bar.
     threads
         Threads an ensemble runs on (``None``: every core; the kernels release the GIL).
+    diagnostics
+        Keep running diagnostics in the kernel, checked after every step:
+        ``Trajectory.diagnostics`` holds the largest relative energy error
+        ``|E - E0| / (T0 + |V0|)``, the largest ``| |q| - 1 |`` and the largest relative
+        ``|L|`` drift over the whole run (per body for an ensemble), whatever was
+        saved: with ``save_every=None`` a million bodies need a few megabytes. (The
+        energy includes the potential of uniform gravity; it is NaN for a user torque's
+        potential, which the kernel cannot call. First-same-as-last merging of
+        splitting steps is off, so every step ends on a full step.)
 
     Ensembles
     ---------
@@ -283,6 +292,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
+    if not isinstance(diagnostics, bool | np.bool_):
+        raise TypeError(f"diagnostics must be True or False, got {type(diagnostics).__name__}")
     from liebody._ensemble import EnsembleRun, resolve_threads
 
     threads = resolve_threads(threads)
@@ -294,14 +305,15 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     if n_bodies is None:
         _check_torque(model, q_init, m_init)
         t = _sample_times(n_steps, save_every, dt)
-        run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress)
+        run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
+                   diagnostics)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
         _check_torque(model, q_init[0], m_init[0])
         t = _sample_times(n_steps, save_every, dt, n_bodies)
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
-                          progress, threads)
+                          progress, threads, diagnostics)
     return run.sampled() if method.sampled else run.stepped()
 
 
@@ -342,14 +354,45 @@ def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray) -> None:
                           f"{value.tolist()} on the initial state", step=0, t=0.0)
 
 
+def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray) -> np.ndarray:
+    """The kernel's reference values for the running diagnostics, ``(N, 10)``:
+    ``1/I``, the gravity constants ``c``, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``."""
+    q0, m0 = np.atleast_2d(q0), np.atleast_2d(m0)
+    n = q0.shape[0]
+    inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
+    c = np.broadcast_to(np.asarray(model.constants, dtype=float), (n, 3))
+    if model.code != S.TORQUE_GRAVITY:
+        c = np.zeros((n, 3))
+    T0 = 0.5 * np.sum(m0 * m0 * inv, axis=1)
+    w, x, y, z = q0.T
+    V0 = c[:, 0] * 2 * (x * z - w * y) + c[:, 1] * 2 * (y * z + w * x) + c[:, 2] * (
+        w * w - x * x - y * y + z * z)
+    if model.code == S.TORQUE_USER and scene.capabilities.conservative:
+        V0 = np.full(n, np.nan)  # a Python potential the kernel cannot evaluate
+    g = np.linalg.norm(m0, axis=1)
+    with np.errstate(divide="ignore"):
+        ref = np.column_stack([inv, c, T0 + V0, 1.0 / (T0 + np.abs(V0)), g, 1.0 / g])
+    return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
+
+
+def diagnostics_dict(dmax: np.ndarray, one: bool) -> dict:
+    """``Trajectory.diagnostics`` from the kernel's running maxima ``(N, 3)``."""
+    keys = ("max_energy_error", "max_qnorm_error", "max_casimir_error")
+    return {k: (float(dmax[0, i]) if one else dmax[:, i].copy()) for i, k in enumerate(keys)}
+
+
 class _Run:
     """One call of :func:`integrate` after validation: runs it and reports the outcome."""
 
-    def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress):
+    def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
+                 diagnostics=False):
         self.scene, self.method, self.dt = scene, method, dt
         self.q0, self.m0 = q0, m0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
+        self.diag = diagnostics
+        self.dref = diagnostic_reference(scene, model, q0, m0)[0]
+        self.dmax = np.zeros(3)
         n = t.shape[0]
         self.q_out = np.empty((n, 4))
         self.m_out = np.empty((n, 3))
@@ -378,7 +421,13 @@ class _Run:
                 done += n
         except KeyboardInterrupt:
             self._interrupted(done, self._step_of_sample(done - 1))
-        return self._finish(Trajectory(t, q, m, self.scene, self.method, self.dt))
+        diag = None
+        if self.diag:  # the exact flow keeps its invariants: measured on the samples
+            from liebody._ensemble import sample_diagnostics
+
+            diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True)
+        return self._finish(Trajectory(t, q, m, self.scene, self.method, self.dt,
+                                       diagnostics=diag))
 
     def _step_of_sample(self, k: int) -> int:
         return min(k * self.save_every, self.n_steps)
@@ -386,12 +435,13 @@ class _Run:
     # -------------------------------------------------------------- stepping
     def stepped(self) -> Trajectory:
         """Run the method's stage table through the driver of its family, in slices."""
-        from liebody._kernels.driver import RUNNERS
+        from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
 
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
-        runner = RUNNERS[plan.family]
-        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0], plan.merge_ends)
+        runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
+        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
+                 plan.merge_ends and not self.diag)
         state = np.concatenate([self.q0, self.m0])
         ctl = np.array([self.save_every, 0], dtype=np.int64)
         done = saved = 0
@@ -401,7 +451,7 @@ class _Run:
                 d, s, status = runner(*table, self.dt, done, n, self.save_every,
                                       done + n == self.n_steps, state, ctl,
                                       self.q_out[1 + saved:], self.m_out[1 + saved:],
-                                      self.model.callback)
+                                      self.model.callback, self.dref, self.dmax)
                 done += d
                 saved += s
                 if status != S.STATUS_OK:
@@ -410,9 +460,14 @@ class _Run:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
             traj = Trajectory(self.t, self.q_out, self.m_out, self.scene, self.method, self.dt,
-                              info=self.info)
+                              info=self.info, diagnostics=self._diagnostics())
             return self._finish(traj)
         return self._failed(status, done, saved, state)
+
+    def _diagnostics(self) -> dict | None:
+        if not self.diag:
+            return None
+        return diagnostics_dict(self.dmax[None, :], True)
 
     # -------------------------------------------------------------- outcomes
     def _partial(self, n_keep: int, status: str, failed_at: float | None = None) -> Trajectory:

@@ -38,6 +38,11 @@ class Trajectory:
         (Ctrl-C: the samples computed so far). For an ensemble, an array ``(N,)`` per
         body (``"failed: non-finite state"``, ...).
 
+    diagnostics : dict or None
+        With ``integrate(..., diagnostics=True)``: ``max_energy_error``,
+        ``max_qnorm_error`` and ``max_casimir_error`` over every step of the run (per
+        body for an ensemble).
+
     The arrays are read-only: derived quantities (``orientation``, energies, ...) are
     computed from them once and stay valid.
     """
@@ -51,6 +56,7 @@ class Trajectory:
     failed_at: float | None = None
     info: dict = field(default_factory=dict)
     status: str = "complete"
+    diagnostics: dict | None = None
 
     def __post_init__(self) -> None:
         for name in ("t", "q", "L"):

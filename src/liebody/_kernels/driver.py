@@ -293,8 +293,8 @@ def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, t
 
 # ------------------------------------------------------------------ the loop
 @jit(inline="always")
-def _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
-          final, state, ctl, q_out, m_out, torque_fn):
+def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps,
+          save_every, final, state, ctl, q_out, m_out, torque_fn, dref, dmax):
     """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
     ``family`` (a ``stages.F_*`` code) is a compile-time constant. The run may be cut
@@ -312,6 +312,13 @@ def _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_ste
     solve or a torque that fails, the loop stops and ``state`` holds the last good
     state, the one after ``steps_done`` steps (for methods with merged end stages it
     may already contain the first stage of the failed step).
+
+    Running diagnostics (``diag``, a compile-time constant): after every step, ``dmax``
+    (in place) keeps the largest relative energy error ``|E - E0| / scale``, ``| |q| - 1 |``
+    and relative ``| |L| - |L0| |`` seen, with ``dref`` = ``(1/I1, 1/I2, 1/I3, c1, c2, c3,
+    E0, 1/scale, |L0|, 1/|L0|)`` (``c = M g cm``: the energy includes the potential of
+    uniform gravity). Run with ``merge_ends`` false, so that every step ends on a full
+    step's state.
     """
     ns = kinds.shape[0]
     for j in range(ns):  # every kind must be one the family runs
@@ -358,6 +365,8 @@ def _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_ste
             state[0], state[1], state[2], state[3] = gw, gx, gy, gz
             state[4], state[5], state[6] = g1, g2, g3
             return step, n_saved, status
+        if diag:
+            _diagnose(w, x, y, z, m1, m2, m3, dref, dmax)
         if save_now:
             until_save = save_every
             q_out[n_saved, 0], q_out[n_saved, 1] = w, x
@@ -371,19 +380,39 @@ def _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_ste
     return n_steps, n_saved, STATUS_OK
 
 
-def _runner(family: int):
-    """The driver compiled for one family (``family`` is a compile-time constant)."""
+@jit(inline="always")
+def _diagnose(w, x, y, z, m1, m2, m3, dref, dmax):
+    """Update the running diagnostics ``dmax`` with the state (see :func:`_loop`)."""
+    n2 = w * w + x * x + y * y + z * z
+    T = 0.5 * (m1 * m1 * dref[0] + m2 * m2 * dref[1] + m3 * m3 * dref[2])
+    # uniform gravity: V = c . Gamma with Gamma = R(q/|q|)^T e_z = (third row of R(q)) / |q|^2
+    V = (dref[3] * 2.0 * (x * z - w * y) + dref[4] * 2.0 * (y * z + w * x)
+         + dref[5] * (w * w - x * x - y * y + z * z)) / n2
+    e = abs(T + V - dref[6]) * dref[7]
+    qe = abs(math.sqrt(n2) - 1.0)
+    le = abs(math.sqrt(m1 * m1 + m2 * m2 + m3 * m3) - dref[8]) * dref[9]
+    if e > dmax[0]:
+        dmax[0] = e
+    if qe > dmax[1]:
+        dmax[1] = qe
+    if le > dmax[2]:
+        dmax[2] = le
+
+
+def _runner(family: int, diag: bool = False):
+    """The driver compiled for one family (``family``, ``diag``: compile-time constants)."""
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every, final,
-            state, ctl, q_out, m_out, torque_fn):
-        return _loop(family, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps,
-                     save_every, final, state, ctl, q_out, m_out, torque_fn)
+            state, ctl, q_out, m_out, torque_fn, dref, dmax):
+        return _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
+                     n_steps, save_every, final, state, ctl, q_out, m_out, torque_fn, dref,
+                     dmax)
 
     return run
 
 
-def _batch_runner(family: int):
+def _batch_runner(family: int, diag: bool = False):
     """The driver of one family for many bodies: the one-body loop run for each body.
 
     ``params`` ``(N, s, P)``, ``state`` ``(N, 7)``, ``ctl`` ``(N, 2)``, ``q_out``
@@ -396,13 +425,14 @@ def _batch_runner(family: int):
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_fn):
+            final, state, ctl, q_out, m_out, saved, done, status, torque_fn, dref, dmax):
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
-            d, s, st = _loop(family, kinds, axes, coefs, clock, params[i], merge_ends, h,
-                             step0, n_steps, save_every, final, state[i], ctl[i],
-                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_fn)
+            d, s, st = _loop(family, diag, kinds, axes, coefs, clock, params[i], merge_ends,
+                             h, step0, n_steps, save_every, final, state[i], ctl[i],
+                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_fn, dref[i],
+                             dmax[i])
             done[i] += d
             saved[i] += s
             status[i] = st
@@ -415,3 +445,6 @@ def _batch_runner(family: int):
 RUNNERS = {family: _runner(family) for family in FAMILIES}
 #: family code -> its driver for many bodies
 BATCH_RUNNERS = {family: _batch_runner(family) for family in FAMILIES}
+#: the same, keeping running diagnostics
+DIAG_RUNNERS = {family: _runner(family, True) for family in FAMILIES}
+DIAG_BATCH_RUNNERS = {family: _batch_runner(family, True) for family in FAMILIES}
