@@ -43,6 +43,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "bodies": ("liebody.bodies", None),
     "integrate": ("liebody._integrate", "integrate"),
     "ConvergenceError": ("liebody._integrate", "ConvergenceError"),
+    "CacheWarning": ("liebody._kernels._jit", "CacheWarning"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
     "methods": ("liebody._methods", "methods"),
     "Method": ("liebody._methods", "Method"),
@@ -55,6 +56,7 @@ __all__ = sorted(_LAZY) + ["__version__"]
 if TYPE_CHECKING:  # pragma: no cover
     from liebody import analysis, bodies, euler, inertia, lagrange_top, quaternion  # noqa: F401
     from liebody._integrate import ConvergenceError, integrate  # noqa: F401
+    from liebody._kernels._jit import CacheWarning  # noqa: F401
     from liebody._methods import Handles, Method, methods, register  # noqa: F401
     from liebody.rigid_body import RigidBody  # noqa: F401
     from liebody.scenes import (  # noqa: F401

