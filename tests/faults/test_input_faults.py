@@ -12,14 +12,20 @@
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
 
 import liebody
+from liebody import euler as E
+from liebody import inertia
 from liebody import quaternion as Q
 
 # ------------------------------------------------------------------ read-only install
@@ -83,3 +89,66 @@ def test_cache_warning_class_loads_no_numba():
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
                          text=True, env=_clean_env()).stdout
     assert out.split() == ["True", "False"]
+
+
+# ------------------------------------------------------------------ tolerances
+
+
+@pytest.mark.parametrize("tol", [math.nan, -1e-9, math.inf])
+def test_from_matrix_rejects_a_tolerance_that_is_not_a_number_ge_0(tol):
+    reflection = np.diag([1.0, 1.0, -1.0])
+    with pytest.raises(ValueError, match=r"tol must be"):
+        Q.from_matrix(reflection, tol=tol)
+    with pytest.raises(ValueError, match=r"tol must be"):
+        Q.is_unit([1.0, 0, 0, 0], tol=tol)
+
+
+def test_from_matrix_rejects_a_tolerance_that_is_not_a_real_number():
+    with pytest.raises(TypeError, match=r"tol must be a real number"):
+        Q.from_matrix(np.eye(3), tol="1e-9")
+    with pytest.raises(TypeError, match=r"tol must be a real number"):
+        Q.is_unit([1.0, 0, 0, 0], tol=None)
+    # still a proper rotation check with a valid tol, 0 included
+    with pytest.raises(ValueError, match=r"proper rotation"):
+        Q.from_matrix(np.diag([1.0, 1.0, -1.0]), tol=0.5)
+    assert np.array_equal(Q.from_matrix(np.eye(3), tol=0.0), [1.0, 0, 0, 0])
+
+
+# ------------------------------------------------------------------ broadcasting
+
+
+I2 = np.tile([1.0, 0, 0, 0], (2, 1))
+I3 = np.tile([1.0, 0, 0, 0], (3, 1))
+V3 = np.tile([1.0, 0, 0], (3, 1))
+
+
+@pytest.mark.parametrize("call, names", [
+    (lambda: Q.multiply(I2, I3), [r"p \(shape \(2, 4\)\)", r"q \(shape \(3, 4\)\)"]),
+    (lambda: Q.rotate(I2, V3), [r"q \(shape \(2, 4\)\)", r"v \(shape \(3, 3\)\)"]),
+    (lambda: Q.rotate_inverse(I2, V3), [r"q \(shape \(2, 4\)\)", r"v \(shape \(3, 3\)\)"]),
+    (lambda: Q.slerp(I2, I3, 0.5), [r"q0 \(shape \(2, 4\)\)", r"q1 \(shape \(3, 4\)\)"]),
+    (lambda: Q.slerp(I2, I2, [0.1, 0.2, 0.3]),
+     [r"q0 \(shape \(2, 4\)\)", r"q1 \(shape \(2, 4\)\)", r"t \(shape \(3,\)\)"]),
+    (lambda: Q.angle_between(I2, I3), [r"p \(shape \(2, 4\)\)", r"q \(shape \(3, 4\)\)"]),
+    (lambda: E.rotation_angle([0.1, 0.2], [0.1, 0.2, 0.3], 0.0),
+     [r"phi \(shape \(2,\)\)", r"theta \(shape \(3,\)\)", r"psi \(shape \(\)\)"]),
+    (lambda: E.rotation_axis([0.1, 0.2], 0.0, [0.1, 0.2, 0.3]),
+     [r"phi \(shape \(2,\)\)", r"psi \(shape \(3,\)\)"]),
+    (lambda: inertia.parallel_axis(np.tile(np.eye(3), (2, 1, 1)), [1.0, 2.0, 3.0], [1, 0, 0]),
+     [r"I_cm \(shape \(2, 3, 3\)\)", r"mass \(shape \(3,\)\)", r"a \(shape \(3,\)\)"]),
+])
+def test_broadcast_errors_name_the_arguments_and_shapes(call, names):
+    with pytest.raises(ValueError, match=r"must broadcast") as info:
+        call()
+    for name in names:
+        assert re.search(name, str(info.value)), (name, str(info.value))
+
+
+# ------------------------------------------------------------------ scipy Rotation
+
+
+def test_from_rotation_expects_a_scipy_rotation():
+    with pytest.raises(TypeError, match=r"rotation must be a scipy.*Rotation.*from_scipy"):
+        Q.from_rotation(np.array([0.0, 0.0, 0.0, 1.0]))
+    q = Q.from_rotation(Rotation.from_rotvec([0.0, 0.0, -0.5]))
+    np.testing.assert_allclose(q, [np.cos(0.25), 0, 0, -np.sin(0.25)], rtol=1e-15)
