@@ -203,7 +203,9 @@ def exp(rotvec: ArrayLike) -> Array:
 def log(q: ArrayLike) -> Array:
     """Logarithm: unit quaternion to rotation vector with angle in ``[0, pi]``.
 
-    Inverse of :func:`exp` on angles ``<= pi``; ``log(q) == log(-q)``.
+    Inverse of :func:`exp` on angles ``<= pi``; ``log(q) == log(-q)``. At angle pi
+    (``w = 0``), where the rotations by pi about ``n`` and ``-n`` coincide, the vector
+    whose first non-zero component is positive is returned.
     """
     q = as_unit_quaternion("q", q)
     batch = q.shape[:-1]

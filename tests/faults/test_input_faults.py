@@ -152,3 +152,25 @@ def test_from_rotation_expects_a_scipy_rotation():
         Q.from_rotation(np.array([0.0, 0.0, 0.0, 1.0]))
     q = Q.from_rotation(Rotation.from_rotvec([0.0, 0.0, -0.5]))
     np.testing.assert_allclose(q, [np.cos(0.25), 0, 0, -np.sin(0.25)], rtol=1e-15)
+
+
+# ------------------------------------------------------------------ log at angle pi
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("v", [(0.6, 0.8, 0.0), (0.0, -0.6, 0.8), (0.0, 0.0, -1.0),
+                               (-1.0, 0.0, 0.0), (-0.48, 0.6, 0.64)])
+def test_log_is_sign_invariant_at_angle_pi(v):
+    q = np.array([0.0, *v])
+    a, b = Q.log(q), Q.log(-q)
+    assert np.array_equal(a, b)
+    np.testing.assert_allclose(np.linalg.norm(a), np.pi, rtol=1e-15)
+    nz = a[np.flatnonzero(a)[0]]
+    assert nz > 0  # canonical: first non-zero component positive
+    assert np.abs(Q.exp(a) - q).max() < 1e-15 or np.abs(Q.exp(a) + q).max() < 1e-15
+    # just short of pi, either sign of w: the short rotation, continuous with pi
+    for w in (1e-17, -1e-17, 1e-9):
+        p = Q.normalize([w, *v])
+        np.testing.assert_allclose(Q.log(p), Q.log(-p), rtol=0, atol=1e-15)
+    batch = Q.log(np.stack([q, -q]))
+    assert np.array_equal(batch[0], batch[1])
