@@ -97,12 +97,28 @@ def conjugate(q: ArrayLike) -> Array:
 
 
 def inverse(q: ArrayLike) -> Array:
-    """Multiplicative inverse ``q* / |q|^2`` (any non-zero quaternion)."""
+    """Multiplicative inverse ``q* / |q|^2`` (any non-zero quaternion).
+
+    Evaluated as ``p* / |p|^2 / 2^e`` with ``p = q / 2^e`` scaled by a power of two (an
+    exact scaling) to ``max |p_i|`` in ``[1/2, 1)``, so ``|q|^2`` neither overflows nor
+    underflows: every non-zero quaternion whose inverse is a float64 (``|q|`` above
+    ``1 / max float ~ 5.6e-309``) gets it to round-off.
+    """
     q = as_float_array("q", q, last_dim=4)
-    n2 = np.sum(q * q, axis=-1, keepdims=True)
-    if np.any(n2 == 0.0):
+    big = np.max(np.abs(q), axis=-1, keepdims=True, initial=0.0)
+    if np.any(big == 0.0):
         raise ValueError("q must be non-zero to have an inverse")
-    return conjugate(q) / n2
+    _, e = np.frexp(big)
+    p = np.ldexp(q, -e)
+    p = p * np.array([1.0, -1.0, -1.0, -1.0]) / np.sum(p * p, axis=-1, keepdims=True)
+    with np.errstate(over="ignore"):
+        out = np.ldexp(p, -e)
+    if not np.all(np.isfinite(out)):
+        norm = np.ldexp(np.linalg.norm(np.ldexp(q, -e), axis=-1), e[..., 0])
+        raise ValueError(
+            f"q's inverse overflows float64: |q| = {float(np.min(norm)):.3g} is below "
+            f"1 / max float = {1.0 / np.finfo(np.float64).max:.3g}")
+    return out
 
 
 def rotate(q: ArrayLike, v: ArrayLike) -> Array:

@@ -174,3 +174,38 @@ def test_log_is_sign_invariant_at_angle_pi(v):
         np.testing.assert_allclose(Q.log(p), Q.log(-p), rtol=0, atol=1e-15)
     batch = Q.log(np.stack([q, -q]))
     assert np.array_equal(batch[0], batch[1])
+
+
+# ------------------------------------------------------------------ inverse
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize("q, expected", [
+    ([1e-170, 0, 0, 0], [1e170, 0, 0, 0]),
+    ([1e170, 0, 0, 0], [1e-170, 0, 0, 0]),
+    ([0, 3e-170, 0, 4e-170], [0, -1.2e169, 0, -1.6e169]),
+    ([0, 3e170, 0, -4e170], [0, -1.2e-171, 0, 1.6e-171]),
+    ([3e-300, 0, 4e-300, 0], [1.2e299, 0, -1.6e299, 0]),
+])
+def test_inverse_of_every_non_zero_quaternion(q, expected):
+    q = np.array(q, dtype=float)
+    inv = Q.inverse(q)
+    np.testing.assert_allclose(inv, expected, rtol=4e-16, atol=0)
+    np.testing.assert_allclose(Q.multiply(inv, q), [1.0, 0, 0, 0], rtol=0, atol=4e-16)
+    np.testing.assert_allclose(Q.multiply(q, inv), [1.0, 0, 0, 0], rtol=0, atol=4e-16)
+
+
+@pytest.mark.kernel
+def test_inverse_of_subnormal_and_mixed_scale_rows():
+    # |q| < 1 / max float: the inverse is beyond float64, a rule of its own
+    q = np.array([[2.0**-1023, 0, 0, 0], [1.0, 2.0, 2.0, 4.0], [1e300, 1e300, 0, 0],
+                  [5e-324, 0, 0, 0], [0, 2.0**-1060, 0, 0]])
+    for row in (3, 4):
+        with pytest.raises(ValueError, match=r"q.*inverse.*overflow"):
+            Q.inverse(q[[0, 1, row]])
+    inv = Q.inverse(q[:3])  # 2^-1023 is subnormal, its inverse 2^1023 a float64
+    np.testing.assert_array_equal(inv[0], [2.0**1023, 0, 0, 0])
+    np.testing.assert_allclose(inv[1], np.array([1.0, -2, -2, -4]) / 25.0, rtol=4e-16)
+    np.testing.assert_allclose(inv[2], [0.5e-300, -0.5e-300, 0, 0], rtol=4e-16)
+    with pytest.raises(ValueError, match=r"q must be non-zero"):
+        Q.inverse([[1.0, 0, 0, 0], [0.0, 0, 0, 0]])
