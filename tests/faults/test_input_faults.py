@@ -27,6 +27,7 @@ import liebody
 from liebody import euler as E
 from liebody import inertia
 from liebody import quaternion as Q
+from liebody._validate import as_float_array, as_positive_int
 
 # ------------------------------------------------------------------ read-only install
 
@@ -209,3 +210,42 @@ def test_inverse_of_subnormal_and_mixed_scale_rows():
     np.testing.assert_allclose(inv[2], [0.5e-300, -0.5e-300, 0, 0], rtol=4e-16)
     with pytest.raises(ValueError, match=r"q must be non-zero"):
         Q.inverse([[1.0, 0, 0, 0], [0.0, 0, 0, 0]])
+
+
+# ------------------------------------------------------------------ numbers in messages
+
+
+@pytest.mark.parametrize("value, shown", [
+    (-10**300, "-1e+300"), (-10**5000, "-1e+5000"), (-123456789012345678901234, "-1.23457e+23"),
+], ids=["1e300", "1e5000", "24 digits"])  # str(10**5000) itself raises (4300-digit limit)
+def test_huge_integers_are_printed_short(value, shown):
+    with pytest.raises(ValueError) as info:
+        as_positive_int("steps", value)
+    msg = str(info.value)
+    assert msg.startswith("steps must be") and shown in msg and len(msg) < 120, msg
+
+
+def test_step_counts_beyond_int64_are_refused_by_name():
+    scene = liebody.FreeBody(liebody.RigidBody([1, 2, 3]))
+    with pytest.raises(ValueError, match=r"^steps must be at most 9.22337e\+18 .* got 1e\+300$"):
+        liebody.integrate(scene, L0=[1, 0, 0.1], dt=0.1, steps=10**300, method="splitting2")
+    with pytest.raises(ValueError, match=r"save_every must be at most"):
+        liebody.integrate(scene, L0=[1, 0, 0.1], dt=0.1, steps=10, save_every=2**63)
+    assert as_positive_int("steps", 2**63 - 1) == 2**63 - 1
+
+
+def test_non_finite_entries_of_a_long_array_are_located_not_printed():
+    big = [1.0] * 100_000
+    big[7_000] = math.nan
+    with pytest.raises(ValueError) as info:
+        as_float_array("L0", big)
+    msg = str(info.value)
+    assert msg.startswith("L0 must be finite") and "7000" in msg and len(msg) < 200, msg
+
+
+def test_non_integral_values_are_printed_short():
+    from fractions import Fraction
+
+    with pytest.raises(ValueError) as info:
+        as_positive_int("steps", Fraction(10**300 + 1, 3))
+    assert len(str(info.value)) < 120, str(info.value)
