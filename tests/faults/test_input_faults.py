@@ -249,3 +249,40 @@ def test_non_integral_values_are_printed_short():
     with pytest.raises(ValueError) as info:
         as_positive_int("steps", Fraction(10**300 + 1, 3))
     assert len(str(info.value)) < 120, str(info.value)
+
+
+# ------------------------------------------------------------------ moments of inertia
+
+
+@pytest.mark.parametrize("moments", [[1e103, 2e103, 2.5e103], [1e101, 1e101, 1e101],
+                                     [1e-101, 1e-101, 1.5e-101]])
+def test_moments_whose_products_leave_float64_are_refused_with_advice(moments):
+    with pytest.raises(ValueError, match=r"inertia.*1e-100.*1e\+100.*rescale"):
+        liebody.RigidBody(moments)
+    with pytest.raises(ValueError, match=r"inertia.*rescale"):
+        liebody.RigidBody(np.diag(moments))
+
+
+def test_moments_at_the_ends_of_the_range_integrate():
+    from liebody import bodies
+
+    earth = bodies.earth(bodies.EARTH_C)  # kg m^2, SI units
+    omega = [1e-9, 0.0, bodies.earth_spin()]
+    for method in ("exact", "splitting2"):
+        tr = liebody.integrate(liebody.FreeBody(earth), omega0=omega, dt=3600.0, steps=24,
+                               method=method)
+        unit = liebody.integrate(liebody.FreeBody(bodies.earth()), omega0=omega, dt=3600.0,
+                                 steps=24, method=method)
+        np.testing.assert_allclose(tr.q, unit.q, rtol=0, atol=1e-13)
+    assert liebody.RigidBody([1e-100, 1.5e-100, 2e-100]).moments[0] == 1e-100
+    assert liebody.RigidBody([0.6e100, 0.8e100, 1e100]).moments[2] == 1e100
+    for scale in (1e-100, 0.25e100):  # moments from 1e-100 to 6.25e99
+        body = liebody.RigidBody(scale * np.array([1.0, 2.0, 2.5]))
+        L0 = scale * np.array([1.0, 0.2, 0.1])
+        for method in ("exact", "splitting2", "rattle", "rk4"):
+            tr = liebody.integrate(liebody.FreeBody(body), L0=L0, dt=0.05, steps=20,
+                                   method=method)
+            ref = liebody.integrate(liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5])),
+                                    L0=L0 / scale, dt=0.05, steps=20, method=method)
+            np.testing.assert_allclose(tr.q, ref.q, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(tr.L / scale, ref.L, rtol=0, atol=1e-13)
