@@ -92,6 +92,17 @@ def test_cache_warning_class_loads_no_numba():
     assert out.split() == ["True", "False"]
 
 
+def test_every_kernel_is_compiled_with_the_documented_policy():
+    """cache, nogil and numpy's error model (a division by zero gives inf, not a
+    ZeroDivisionError from inside a kernel): the policy _jit.py and docs/design.md state."""
+    from liebody._kernels import exact, quat, torque
+
+    for kernel in (quat.qmul, exact.exact_flow, torque.damping_flow):
+        options = kernel.targetoptions
+        assert options.get("nogil") is True and options.get("error_model") == "numpy", options
+    assert all(math.isnan(v) for v in quat.qnormalize(0.0, 0.0, 0.0, 0.0))  # 0/0, no raise
+
+
 # ------------------------------------------------------------------ tolerances
 
 

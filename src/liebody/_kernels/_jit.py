@@ -30,7 +30,7 @@ from __future__ import annotations
 import warnings
 
 #: Options every kernel is compiled with.
-OPTIONS: dict = {"cache": True}
+OPTIONS: dict = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 #: The reason the disk cache is off in this process (``None`` while it works).
 _cache_off: str | None = None
