@@ -6,6 +6,8 @@
   generic over every registered method;
 * ``scenes/`` — torqued and damped scenes, and the rigid-body phenomena against their
   closed forms (Hand & Finch, *Analytical Mechanics*, ch. 8);
+* ``faults/`` — faults at the edges: read-only installs, bad or extreme input, stiff
+  dissipation;
 * ``benchmarks/`` — the benchmark suite's smoke test.
 
 Helpers shared by several tiers live in ``support.py``.

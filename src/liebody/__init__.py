@@ -48,6 +48,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "IntegrationInterrupted": ("liebody.errors", "IntegrationInterrupted"),
     "InvariantWarning": ("liebody.errors", "InvariantWarning"),
     "TorqueError": ("liebody.errors", "TorqueError"),
+    "CacheWarning": ("liebody.errors", "CacheWarning"),
     "Trajectory": ("liebody.trajectory", "Trajectory"),
     "methods": ("liebody._methods", "methods"),
     "Method": ("liebody._methods", "Method"),
@@ -70,6 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from liebody._integrate import integrate  # noqa: F401
     from liebody._methods import Handles, Method, methods, register  # noqa: F401
     from liebody.errors import (  # noqa: F401
+        CacheWarning,
         ConvergenceError,
         IntegrationError,
         IntegrationInterrupted,

@@ -66,7 +66,8 @@ class EnsembleRun:
         self.saved = np.zeros(n, dtype=np.int64)
         self.info: dict = {}
         self.diag = diagnostics
-        self.dref = diagnostic_reference(scene, model, q0, m0)
+        self.dref = (diagnostic_reference(scene, model, q0, m0) if diagnostics
+                     else np.zeros((n, 10)))
         self.dmax = np.zeros((n, 3))
 
     @property

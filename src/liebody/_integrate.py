@@ -391,7 +391,8 @@ class _Run:
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
         self.diag = diagnostics
-        self.dref = diagnostic_reference(scene, model, q0, m0)[0]
+        self.dref = (diagnostic_reference(scene, model, q0, m0)[0] if diagnostics
+                     else np.zeros(10))
         self.dmax = np.zeros(3)
         n = t.shape[0]
         self.q_out = np.empty((n, 4))

@@ -3,16 +3,83 @@
 Every public function converts its inputs with these helpers so that bad input
 fails early with a ``ValueError``/``TypeError`` that names the argument and the
 rule it broke, instead of producing NaN deep inside a kernel.
+
+Values in messages are printed short (:func:`show`): an integer of more than 15
+digits in ``%g`` form (``1e+300``, never its 300 digits), a float as its shortest
+repr, anything else cut to a few dozen characters; an array is never printed whole
+(the position of its first offending entry is given instead).
 """
 
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
 
 #: Default tolerance on ``| |q| - 1 |`` accepted for a "unit" quaternion.
 UNIT_TOL = 1e-10
+
+#: Largest count :func:`as_positive_int` accepts: counts are int64 in the kernels.
+INT64_MAX = 2**63 - 1
+
+_SHOW_CHARS = 40
+
+
+def _short_int(v: int) -> str:
+    """``%g``-like form of an integer of any size (``str`` of a huge int is slow, and
+    refused beyond 4300 digits)."""
+    if abs(v) < 10**15:
+        return str(v)
+    if abs(v) < 10**300:
+        return f"{float(v):.6g}"
+    a = abs(v)
+    e = int((a.bit_length() - 1) * math.log10(2.0))  # floor(log10 a) or one below it
+    if a >= 10 ** (e + 1):
+        e += 1
+    lead = a // 10 ** (e - 6)  # 7 significant digits, rounded below to 6
+    mantissa = f"{lead / 1e6:.6g}"
+    if mantissa == "10":
+        mantissa, e = "1", e + 1
+    return f"{'-' if v < 0 else ''}{mantissa}e+{e}"
+
+
+def show(value) -> str:
+    """``value`` as an error message should print it: short, whatever its size.
+
+    Integers beyond 15 digits in ``%g`` form (``1e+300``), floats as their shortest
+    repr (at most 24 characters), arrays and sequences by shape and dtype only, anything
+    else as its repr cut to 40 characters.
+    """
+    if isinstance(value, bool | np.bool_):
+        return repr(bool(value))
+    if isinstance(value, numbers.Integral):
+        return _short_int(int(value))
+    if isinstance(value, float | np.floating):
+        return repr(float(value))
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape} and dtype {value.dtype}"
+    if isinstance(value, list | tuple) and len(value) > 8:
+        return f"a {type(value).__name__} of length {len(value)}"
+    if isinstance(value, numbers.Real):  # Fraction, Decimal, ...: a float is close enough
+        try:
+            return f"{float(value):.6g}"
+        except (OverflowError, ValueError):
+            pass
+    text = repr(value)
+    return text if len(text) <= _SHOW_CHARS else text[: _SHOW_CHARS - 3] + "..."
+
+
+def _first_nonfinite(arr: np.ndarray) -> str:
+    """Where the first NaN or inf of ``arr`` is, and how many there are."""
+    bad = ~np.isfinite(arr)
+    if arr.ndim == 0:
+        return f"got {show(float(arr))}"
+    index = tuple(int(i) for i in np.argwhere(bad)[0])
+    where = index[0] if len(index) == 1 else index
+    count = int(np.count_nonzero(bad))
+    return (f"got {show(float(arr[index]))} at index {where} ({count} of {arr.size} "
+            f"entries not finite)")
 
 
 def as_float_array(name: str, value, *, last_dim: int | None = None,
@@ -52,7 +119,7 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
             f"got {arr.shape}"
         )
     if not allow_nonfinite and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf), got {value!r}")
+        raise ValueError(f"{name} must be finite (no NaN or inf), {_first_nonfinite(arr)}")
     return arr
 
 
@@ -80,26 +147,42 @@ def as_positive_float(name: str, value, *, allow_zero: bool = False) -> float:
     """A finite real scalar that is > 0 (or >= 0 with ``allow_zero``)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real | np.floating | np.integer):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond float64
+        raise ValueError(f"{name} must be finite, got {show(value)}") from None
     if not np.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v}")
+        raise ValueError(f"{name} must be finite, got {show(v)}")
     if allow_zero:
         if v < 0:
-            raise ValueError(f"{name} must be >= 0, got {v}")
+            raise ValueError(f"{name} must be >= 0, got {show(v)}")
     elif v <= 0:
-        raise ValueError(f"{name} must be > 0, got {v}")
+        raise ValueError(f"{name} must be > 0, got {show(v)}")
     return v
 
 
 def as_positive_int(name: str, value) -> int:
-    """A strictly positive integer (bools and non-integral floats are rejected)."""
-    if isinstance(value, bool):
+    """A positive integer up to :data:`INT64_MAX` (bools and non-integral floats are
+    rejected; counts are 64-bit integers in the kernels)."""
+    if isinstance(value, bool | np.bool_):
         raise TypeError(f"{name} must be a positive integer, got a bool")
-    integral = isinstance(value, numbers.Integral)
-    if integral or (isinstance(value, numbers.Real) and float(value).is_integer()):
+    if isinstance(value, numbers.Integral):
+        v = int(value)
+    elif isinstance(value, numbers.Real) and _is_whole(value):
         v = int(value)  # 1e6 written as a float is accepted: its value is an integer
     else:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        raise ValueError(f"{name} must be a positive integer, got {show(value)}")
     if v <= 0:
-        raise ValueError(f"{name} must be a positive integer, got {v}")
+        raise ValueError(f"{name} must be a positive integer, got {show(v)}")
+    if v > INT64_MAX:
+        raise ValueError(f"{name} must be at most {show(INT64_MAX)} (2**63 - 1, a 64-bit "
+                         f"integer), got {show(v)}")
     return v
+
+
+def _is_whole(value) -> bool:
+    """Whether a real number is an integer (exactly: a Fraction 10**300/3 is not)."""
+    try:
+        return bool(value == math.floor(value))
+    except (OverflowError, ValueError, TypeError):  # inf, nan
+        return False

@@ -9,7 +9,7 @@ method should keep that left its tolerance) warns.
 
 from __future__ import annotations
 
-__all__ = ["ConvergenceError", "IntegrationError", "IntegrationInterrupted",
+__all__ = ["CacheWarning", "ConvergenceError", "IntegrationError", "IntegrationInterrupted",
            "InvariantWarning", "TorqueError"]
 
 
@@ -64,3 +64,13 @@ class InvariantWarning(RuntimeWarning):
     """A run completed, but an invariant its method should keep (or ``|q| = 1``) has left
     its tolerance by the end: the step is too large for the scene, or the method is a
     baseline that does not keep it."""
+
+
+class CacheWarning(RuntimeWarning):
+    """numba's disk cache is unavailable: kernels compile in every new process.
+
+    Emitted once per process, on the first kernel numba cannot cache (no writable
+    cache folder, e.g. a read-only install). Set the environment variable
+    ``NUMBA_CACHE_DIR`` to a writable folder to cache compiled kernels again.
+    """
+

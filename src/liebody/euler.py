@@ -96,7 +96,12 @@ def _angles_or_triple(angles, theta, psi) -> Array:
     phi = as_float_array("phi", angles)
     th = as_float_array("theta", theta)
     ps = as_float_array("psi", psi)
-    return np.stack(np.broadcast_arrays(phi, th, ps), axis=-1)
+    try:
+        return np.stack(np.broadcast_arrays(phi, th, ps), axis=-1)
+    except ValueError:
+        raise ValueError(
+            f"phi (shape {phi.shape}), theta (shape {th.shape}) and psi (shape {ps.shape}) "
+            f"must broadcast against each other") from None
 
 
 def _broadcast(name_a: str, a: np.ndarray, name_b: str, b: np.ndarray):

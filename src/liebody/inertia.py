@@ -202,6 +202,12 @@ def parallel_axis(I_cm, mass, a) -> np.ndarray:
     if np.any(m <= 0):
         raise ValueError(f"mass must be > 0, got {mass!r}")
     d = as_float_array("a", a, last_dim=3)
+    try:
+        np.broadcast_shapes(I0.shape[:-2], m.shape, d.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            f"I_cm (shape {I0.shape}), mass (shape {m.shape}) and a (shape {d.shape}) must "
+            f"broadcast against each other over their leading axes") from None
     a2 = np.sum(d * d, axis=-1)
     shift = a2[..., None, None] * _EYE - d[..., :, None] * d[..., None, :]
     return I0 + m[..., None, None] * shift

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from liebody._kernels import quat as _k
-from liebody._validate import UNIT_TOL, as_float_array, as_unit_quaternion
+from liebody._validate import UNIT_TOL, as_float_array, as_positive_float, as_unit_quaternion
 
 __all__ = [
     "IDENTITY",
@@ -51,10 +51,21 @@ IDENTITY: Array = np.array([1.0, 0.0, 0.0, 0.0])
 IDENTITY.flags.writeable = False
 
 
-def _rows(*arrays: np.ndarray, dims: tuple[tuple[int, ...], ...]):
-    """Broadcast the leading (batch) axes and flatten them to one row axis."""
-    batch = np.broadcast_shapes(*(a.shape[: a.ndim - len(d)] for a, d in zip(arrays, dims,
-                                                                              strict=True)))
+def _rows(*arrays: np.ndarray, dims: tuple[tuple[int, ...], ...], names: tuple[str, ...]):
+    """Broadcast the leading (batch) axes and flatten them to one row axis.
+
+    Arguments whose batch axes do not broadcast raise a ``ValueError`` that names them
+    (``names``) and gives their shapes.
+    """
+    batches = [a.shape[: a.ndim - len(d)] for a, d in zip(arrays, dims, strict=True)]
+    try:
+        batch = np.broadcast_shapes(*batches)
+    except ValueError:
+        args = ", ".join(f"{n} (shape {a.shape})" for n, a in zip(names, arrays, strict=True))
+        lead = ", ".join(str(b) for b in batches)
+        raise ValueError(
+            f"{args} must broadcast against each other over their leading (batch) axes; "
+            f"they are {lead}") from None
     flat = [
         np.ascontiguousarray(np.broadcast_to(a, batch + d)).reshape((-1, *d))
         for a, d in zip(arrays, dims, strict=True)
@@ -73,7 +84,7 @@ def multiply(p: ArrayLike, q: ArrayLike) -> Array:
     """
     p = as_float_array("p", p, last_dim=4)
     q = as_float_array("q", q, last_dim=4)
-    batch, (a, b) = _rows(p, q, dims=((4,), (4,)))
+    batch, (a, b) = _rows(p, q, dims=((4,), (4,)), names=("p", "q"))
     out = np.empty_like(a)
     _k.multiply_rows(a, b, out)
     return out.reshape(batch + (4,))
@@ -86,12 +97,28 @@ def conjugate(q: ArrayLike) -> Array:
 
 
 def inverse(q: ArrayLike) -> Array:
-    """Multiplicative inverse ``q* / |q|^2`` (any non-zero quaternion)."""
+    """Multiplicative inverse ``q* / |q|^2`` (any non-zero quaternion).
+
+    Evaluated as ``p* / |p|^2 / 2^e`` with ``p = q / 2^e`` scaled by a power of two (an
+    exact scaling) to ``max |p_i|`` in ``[1/2, 1)``, so ``|q|^2`` neither overflows nor
+    underflows: every non-zero quaternion whose inverse is a float64 (``|q|`` above
+    ``1 / max float ~ 5.6e-309``) gets it to round-off.
+    """
     q = as_float_array("q", q, last_dim=4)
-    n2 = np.sum(q * q, axis=-1, keepdims=True)
-    if np.any(n2 == 0.0):
+    big = np.max(np.abs(q), axis=-1, keepdims=True, initial=0.0)
+    if np.any(big == 0.0):
         raise ValueError("q must be non-zero to have an inverse")
-    return conjugate(q) / n2
+    _, e = np.frexp(big)
+    p = np.ldexp(q, -e)
+    p = p * np.array([1.0, -1.0, -1.0, -1.0]) / np.sum(p * p, axis=-1, keepdims=True)
+    with np.errstate(over="ignore"):
+        out = np.ldexp(p, -e)
+    if not np.all(np.isfinite(out)):
+        norm = np.ldexp(np.linalg.norm(np.ldexp(q, -e), axis=-1), e[..., 0])
+        raise ValueError(
+            f"q's inverse overflows float64: |q| = {float(np.min(norm)):.3g} is below "
+            f"1 / max float = {1.0 / np.finfo(np.float64).max:.3g}")
+    return out
 
 
 def rotate(q: ArrayLike, v: ArrayLike) -> Array:
@@ -106,7 +133,7 @@ def rotate(q: ArrayLike, v: ArrayLike) -> Array:
     """
     q = as_unit_quaternion("q", q)
     v = as_float_array("v", v, last_dim=3)
-    batch, (a, b) = _rows(q, v, dims=((4,), (3,)))
+    batch, (a, b) = _rows(q, v, dims=((4,), (3,)), names=("q", "v"))
     out = np.empty_like(b)
     _k.rotate_rows(a, b, out)
     return out.reshape(batch + (3,))
@@ -132,7 +159,7 @@ def rotate_inverse(q: ArrayLike, v: ArrayLike) -> Array:
 def to_matrix(q: ArrayLike) -> Array:
     """Rotation matrices ``R(q)`` of shape ``(..., 3, 3)`` (space <- body)."""
     q = as_unit_quaternion("q", q)
-    batch, (a,) = _rows(q, dims=((4,),))
+    batch, (a,) = _rows(q, dims=((4,),), names=("q",))
     out = np.empty((a.shape[0], 3, 3))
     _k.to_matrix_rows(a, out)
     return out.reshape(batch + (3, 3))
@@ -153,9 +180,11 @@ def from_matrix(matrix: ArrayLike, *, tol: float = 1e-9) -> Array:
     matrix
         Proper rotation matrices ``(..., 3, 3)``.
     tol
-        Accepted deviation ``max |R^T R - 1|`` and ``|det R - 1|``; a matrix that is not a
-        proper rotation within ``tol`` raises ``ValueError``.
+        Accepted deviation ``max |R^T R - 1|`` and ``|det R - 1|`` (a finite number
+        ``>= 0``); a matrix that is not a proper rotation within ``tol`` raises
+        ``ValueError``.
     """
+    tol = as_positive_float("tol", tol, allow_zero=True)
     m = as_float_array("matrix", matrix)
     if m.ndim < 2 or m.shape[-2:] != (3, 3):
         raise ValueError(f"matrix must have shape (..., 3, 3), got {m.shape}")
@@ -190,7 +219,9 @@ def exp(rotvec: ArrayLike) -> Array:
 def log(q: ArrayLike) -> Array:
     """Logarithm: unit quaternion to rotation vector with angle in ``[0, pi]``.
 
-    Inverse of :func:`exp` on angles ``<= pi``; ``log(q) == log(-q)``.
+    Inverse of :func:`exp` on angles ``<= pi``; ``log(q) == log(-q)``. At angle pi
+    (``w = 0``), where the rotations by pi about ``n`` and ``-n`` coincide, the vector
+    whose first non-zero component is positive is returned.
     """
     q = as_unit_quaternion("q", q)
     batch = q.shape[:-1]
@@ -213,7 +244,8 @@ def normalize(q: ArrayLike) -> Array:
 
 
 def is_unit(q: ArrayLike, tol: float = UNIT_TOL) -> NDArray[np.bool_]:
-    """Boolean mask ``| |q| - 1 | <= tol``."""
+    """Boolean mask ``| |q| - 1 | <= tol`` (``tol`` a finite number ``>= 0``)."""
+    tol = as_positive_float("tol", tol, allow_zero=True)
     q = as_float_array("q", q, last_dim=4, allow_nonfinite=True)
     return np.abs(np.linalg.norm(q, axis=-1) - 1.0) <= tol
 
@@ -227,7 +259,7 @@ def slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> Array:
     a = as_unit_quaternion("q0", q0)
     b = as_unit_quaternion("q1", q1)
     t = as_float_array("t", t)
-    batch, (a, b, tt) = _rows(a, b, t, dims=((4,), (4,), ()))
+    batch, (a, b, tt) = _rows(a, b, t, dims=((4,), (4,), ()), names=("q0", "q1", "t"))
     out = np.empty_like(a)
     _k.slerp_rows(a, b, tt, out)
     return out.reshape(batch + (4,))
@@ -283,6 +315,18 @@ def to_rotation(q: ArrayLike):
 
 
 def from_rotation(rotation) -> Array:
-    """Scalar-first unit quaternions of a scipy ``Rotation`` (``w >= 0``)."""
+    """Scalar-first unit quaternions of a scipy ``Rotation`` (``w >= 0``).
+
+    For scipy's scalar-last quaternion arrays ``(x, y, z, w)`` use :func:`from_scipy`.
+    """
+    from scipy.spatial.transform import Rotation
+
+    if not isinstance(rotation, Rotation):
+        hint = (" For an array of scipy's scalar-last quaternions (x, y, z, w) use "
+                "liebody.quaternion.from_scipy(q_xyzw), or build the Rotation first with "
+                "Rotation.from_quat(q_xyzw)." if isinstance(rotation, np.ndarray | list | tuple)
+                else "")
+        raise TypeError(f"rotation must be a scipy.spatial.transform.Rotation, got "
+                        f"{type(rotation).__name__}.{hint}")
     q = from_scipy(rotation.as_quat())
     return np.where(q[..., :1] < 0.0, -q, q)

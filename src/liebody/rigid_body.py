@@ -19,6 +19,18 @@ The exact-flow kernel, which can also be called on raw moments, keeps a round-of
 guard of its own (moments within 4 ulps take its trig-only branch, where the two
 branches agree to round-off); a body built through :class:`RigidBody` never reaches
 it with moments that are not either exactly equal or more than ``1e-10`` apart.
+
+Range of the moments
+--------------------
+Every principal moment must lie in ``[MOMENT_MIN, MOMENT_MAX] = [1e-100, 1e100]``, in
+whatever units the body is given. The integrators and analyses form products of up to
+three moments (``I1 I2 I3`` in the exact flow's frequency, the determinant of the
+inertia, the stability exponents), and these stay inside float64's normal range
+(``2.2e-308`` to ``1.8e308``) exactly when each moment does: outside it they overflow
+to ``inf`` or lose their digits to underflow, far from where the moments were given.
+Bodies beyond the range are refused with the advice to rescale the units (the Earth,
+``C = 8.034e37 kg m^2``, is well inside it; a galaxy is ``~1e68 kg m^2`` in
+``kg kpc^2`` units).
 """
 
 from __future__ import annotations
@@ -28,7 +40,8 @@ import numpy as np
 from liebody._validate import as_float_array, as_positive_float
 from liebody.inertia import _check_symmetric, tensor
 
-__all__ = ["EQUAL_MOMENTS_RTOL", "TRIANGLE_RTOL", "ZERO_RTOL", "RigidBody", "moments_equal"]
+__all__ = ["EQUAL_MOMENTS_RTOL", "MOMENT_MAX", "MOMENT_MIN", "TRIANGLE_RTOL", "ZERO_RTOL",
+           "RigidBody", "moments_equal"]
 
 #: A principal moment ``|I_k| <= ZERO_RTOL * max_i |I_i|`` is treated as zero.
 ZERO_RTOL = 1e-12
@@ -38,6 +51,11 @@ TRIANGLE_RTOL = 1e-12
 
 #: Two moments are the same moment when ``|I_i - I_j| <= EQUAL_MOMENTS_RTOL * max(I)``.
 EQUAL_MOMENTS_RTOL = 1e-10
+
+#: Accepted range of every principal moment, in any units: products of three moments
+#: stay within float64's normal range (module docstring, "Range of the moments").
+MOMENT_MIN = 1e-100
+MOMENT_MAX = 1e100
 
 _AXIS_NAMES = ("I1", "I2", "I3")
 
@@ -121,9 +139,11 @@ class RigidBody:
         ``inertia`` has the wrong shape, is not finite, is a non-symmetric tensor
         (``max|I - I^T| > 1e-12 max|I|``), has a negative principal moment, has a zero
         principal moment (``<= ZERO_RTOL * max``: an ideal rod or dumbbell, all mass on
-        one line, has no finite rotational dynamics about its axis), or violates
-        the triangle inequality beyond ``TRIANGLE_RTOL * max`` (unless
-        ``check_triangle=False``); ``mass`` is not finite and positive.
+        one line, has no finite rotational dynamics about its axis), has a principal
+        moment outside ``[MOMENT_MIN, MOMENT_MAX] = [1e-100, 1e100]`` (products of
+        three moments would leave float64: rescale the units, see the module
+        docstring), or violates the triangle inequality beyond ``TRIANGLE_RTOL * max``
+        (unless ``check_triangle=False``); ``mass`` is not finite and positive.
 
     Attributes
     ----------
@@ -215,6 +235,15 @@ class RigidBody:
                     "rotational dynamics about that axis "
                     "(omega = L / I is undefined). Give it a small thickness, e.g. "
                     "liebody.inertia.solid_cylinder instead of thin_rod."
+                )
+        for k in range(3):
+            if not MOMENT_MIN <= moments[k] <= MOMENT_MAX:
+                raise ValueError(
+                    f"inertia: {what} {_AXIS_NAMES[k]} = {float(moments[k]):.6g} is outside "
+                    f"[{MOMENT_MIN:g}, {MOMENT_MAX:g}]: the integrators form products of "
+                    f"three moments (I1 I2 I3), which would {'over' if moments[k] > 1 else 'under'}"
+                    f"flow float64; rescale the units, e.g. kg km^2 instead of kg m^2 "
+                    f"(1 kg km^2 = 1e6 kg m^2), and L or omega with them"
                 )
         if check_triangle:
             for k in range(3):

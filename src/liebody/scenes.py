@@ -362,9 +362,21 @@ class DampedBody(Scene):
     spin-stabilised spacecraft of Hand & Finch, ch. 8 (stability of rotation about the
     principal axes; Explorer 1 started about its long axis and tumbled).
 
-    Default method: ``"splitting2"``, D(h/2) – free flow(h) – D(h/2) with a
-    second-order Lie-midpoint step D of the dissipative part; ``|L|`` and the spatial
-    ``L`` are kept to round-off. ``free_flow`` as for :class:`HeavyTop`.
+    This is the double-bracket dissipation of A. Bloch, P. S. Krishnaprasad, J. E.
+    Marsden & T. S. Ratiu, "The Euler–Poincaré equations and double bracket
+    dissipation", Commun. Math. Phys. 175 (1996) 1–42.
+
+    Default method: ``"splitting2"``, D(h/2) – free flow(h) – D(h/2), second order.
+    The dissipative part alone, ``L_i' = eps (2T - |L|^2 / I_i) L_i``, is a replicator
+    equation for ``p_i = L_i^2 / |L|^2`` and has the exponential solution
+    ``L_i(t) ∝ L_i(0) exp(-eps |L|^2 t / I_i)`` (normalised to ``|L|``); the step D
+    uses it, so ``L`` is exact in D, and turns ``q`` by the shortest arc that keeps the
+    spatial ``L`` (``O(h^3)`` from the exact orientation, about ``L`` only). D is
+    stable for any ``eps h``: ``|L|`` and the spatial ``L`` are kept to round-off, the
+    energy never rises within D, and a stiff dissipation (``eps |L|^2 h`` large) puts
+    the body on its largest-moment axis at once instead of overshooting. The free flow
+    keeps the energy exactly with ``free_flow="exact"`` and to ``O(h^2)`` with the axis
+    splitting. ``free_flow`` as for :class:`HeavyTop`.
     """
 
     body: RigidBody

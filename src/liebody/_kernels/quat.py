@@ -161,10 +161,12 @@ def qmul_increment(w, x, y, z, cm, vx, vy, vz):
 def qlog(w, x, y, z):
     """Rotation vector of a unit quaternion, angle in ``[0, pi]``.
 
-    ``q`` and ``-q`` give the same result (the short rotation is returned).
+    ``q`` and ``-q`` give the same result (the short rotation is returned). At angle
+    pi exactly (``w = 0``) the rotations by ``pi`` about ``n`` and ``-n`` are the same
+    and the one whose first non-zero component is positive is returned.
     Uses ``atan2`` so it is accurate at all angles, including near 0 and pi.
     """
-    if w < 0.0:
+    if w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0))))):
         w, x, y, z = -w, -x, -y, -z
     n = math.sqrt(x * x + y * y + z * z)
     if n < 1e-8:
