@@ -70,15 +70,16 @@ def _principal_axes(sym: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ascending eigenvalues and a proper rotation of eigenvectors with fixed signs.
 
     Columns 1 and 2 are signed so that their largest-magnitude component (the first,
-    on a tie) is positive; column 3 is their cross product, so ``det = +1``.
+    on a tie) is positive; column 3 is their cross product, so ``det = +1``. Works on
+    one tensor ``(3, 3)`` or a stack ``(N, 3, 3)``.
     """
     w, V = np.linalg.eigh(sym)
     V = V.copy()
     for k in (0, 1):
-        col = V[:, k]
-        if col[int(np.argmax(np.abs(col)))] < 0:
-            V[:, k] = -col
-    V[:, 2] = np.cross(V[:, 0], V[:, 1])
+        col = V[..., :, k]
+        big = np.take_along_axis(col, np.argmax(np.abs(col), axis=-1)[..., None], axis=-1)
+        V[..., :, k] = np.where(big < 0, -col, col)
+    V[..., :, 2] = np.cross(V[..., :, 0], V[..., :, 1])
     return w, V
 
 
@@ -88,20 +89,27 @@ def moments_equal(a: float, b: float, scale: float) -> bool:
     return abs(a - b) <= EQUAL_MOMENTS_RTOL * scale
 
 
-def _equalize(moments: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
+_PAIRS = ((0, 1), (0, 2), (1, 2))
+
+
+def _equalize(moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Make equal moments (:func:`moments_equal`) exactly equal: their mean.
 
-    Returns the moments and the equal pairs. Two pairs equal make a sphere.
+    ``moments`` ``(N, 3)``. Returns the moments and which of the pairs (0, 1), (0, 2),
+    (1, 2) are equal, ``(N, 3)`` bool. Two pairs equal make a sphere.
     """
-    scale = float(np.max(moments))
-    equal = [(i, j) for i, j in ((0, 1), (0, 2), (1, 2))
-             if moments_equal(moments[i], moments[j], scale)]
+    scale = np.max(moments, axis=-1)
+    equal = np.stack([np.abs(moments[:, i] - moments[:, j]) <= EQUAL_MOMENTS_RTOL * scale
+                      for i, j in _PAIRS], axis=-1)
     out = np.array(moments, dtype=np.float64)
-    if len(equal) >= 2:
-        out[:] = out.mean()
-    elif equal:
-        i, j = equal[0]
-        out[i] = out[j] = 0.5 * (out[i] + out[j])
+    sphere = equal.sum(axis=-1) >= 2
+    out[sphere] = out[sphere].mean(axis=-1, keepdims=True)
+    one = equal.sum(axis=-1) == 1
+    for p, (i, j) in enumerate(_PAIRS):
+        rows = one & equal[:, p]
+        mean = 0.5 * (out[rows, i] + out[rows, j])
+        out[rows, i] = mean
+        out[rows, j] = mean
     return out, equal
 
 
@@ -121,7 +129,8 @@ class RigidBody:
         Either the three principal moments ``(I1, I2, I3)`` -- kept **in the given
         order**, which defines body axes 1, 2, 3, with ``axes`` the identity -- or a
         symmetric inertia tensor in some input frame, which is diagonalised with
-        :func:`numpy.linalg.eigh` (moments in **ascending** order).
+        :func:`numpy.linalg.eigh` (moments in **ascending** order). For many bodies at
+        once (an ensemble of different inertias), see :meth:`batch`.
     mass : float, optional
         Total mass (``> 0``), or ``None`` (default) when only the rotation matters.
     check_triangle : bool, default True
@@ -147,7 +156,7 @@ class RigidBody:
 
     Attributes
     ----------
-    moments : numpy.ndarray, shape (3,)
+    moments : numpy.ndarray, shape (3,) (``(N, 3)`` for a batch)
         Principal moments ``(I1, I2, I3)`` (read-only).
     axes : numpy.ndarray, shape (3, 3)
         Proper rotation (``det = +1``) whose columns are the principal axes expressed
@@ -177,86 +186,150 @@ class RigidBody:
         one is returned is deterministic but conventional.
     """
 
-    __slots__ = ("_axes", "_free_axes", "_mass", "_moments", "_symmetry_axis", "_tensor")
+    __slots__ = ("_axes", "_equal", "_mass", "_moments", "_tensor")
 
-    def __init__(self, inertia, mass: float | None = None, check_triangle: bool = True) -> None:
+    def __init__(self, inertia, mass=None, check_triangle: bool = True, *,
+                 _batch: bool = False) -> None:
         if not isinstance(check_triangle, bool | np.bool_):
             raise TypeError(
                 f"check_triangle must be a bool, got {type(check_triangle).__name__}"
             )
         arr = as_float_array("inertia", inertia)
-        if arr.shape == (3,):
-            moments = arr.copy()
-            axes = np.eye(3)
+        batch = bool(_batch)
+        shapes = ((3,), (3, 3)) if not batch else ((None, 3), (None, 3, 3))
+        if arr.ndim == len(shapes[0]) and arr.shape[-1] == 3:
+            moments = arr.reshape(-1, 3).copy()
+            axes = np.broadcast_to(np.eye(3), (moments.shape[0], 3, 3))
             tensor_input = False
-        elif arr.shape == (3, 3):
-            moments, axes = _principal_axes(_check_symmetric("inertia", arr))
+        elif arr.ndim == len(shapes[1]) and arr.shape[-2:] == (3, 3):
+            moments, axes = _principal_axes(_check_symmetric("inertia", arr).reshape(-1, 3, 3))
             tensor_input = True
+        elif batch:
+            raise ValueError("inertia of a batch must be principal moments per body, shape "
+                             f"(N, 3), or tensors, shape (N, 3, 3); got shape {arr.shape}")
         else:
             raise ValueError(
                 "inertia must be three principal moments, shape (3,), or a symmetric "
-                f"3x3 tensor, shape (3, 3); got shape {arr.shape}"
+                f"3x3 tensor, shape (3, 3); got shape {arr.shape} (a batch of bodies: "
+                "RigidBody.batch)"
             )
-        self._check_moments(moments, tensor_input, bool(check_triangle))
+        self._check_moments(moments, tensor_input, bool(check_triangle), batch)
         moments, equal = _equalize(moments)
-
+        t = np.einsum("nij,nj,nkj->nik", axes, moments, axes)
+        t = 0.5 * (t + np.swapaxes(t, -1, -2))
+        if not batch:
+            moments, axes, t, equal = moments[0], axes[0], t[0], equal[0]
         self._moments = _readonly(moments)
         self._axes = _readonly(axes)
-        t = (axes * moments) @ axes.T
-        self._tensor = _readonly(0.5 * (t + t.T))
-        self._mass = None if mass is None else as_positive_float("mass", mass)
+        self._tensor = _readonly(t)
+        self._equal = equal
+        self._mass = None if mass is None else self._as_mass(mass, batch)
 
-        if len(equal) >= 2:
-            self._symmetry_axis = None
-            self._free_axes: tuple[int, ...] = (0, 1, 2)
-        elif len(equal) == 1:
-            self._free_axes = equal[0]
-            self._symmetry_axis = 3 - sum(equal[0])
-        else:
-            self._symmetry_axis = None
-            self._free_axes = ()
+    def _as_mass(self, mass, batch: bool):
+        if not batch or np.ndim(mass) == 0:
+            return as_positive_float("mass", mass)
+        m = as_float_array("mass", mass, shape=(len(self),))
+        if np.any(m <= 0):
+            raise ValueError(f"mass must be > 0 for every body, got {m.min():g} at body "
+                             f"{int(np.argmin(m))}")
+        return _readonly(m)
 
     @staticmethod
-    def _check_moments(moments: np.ndarray, tensor_input: bool, check_triangle: bool) -> None:
+    def _check_moments(moments: np.ndarray, tensor_input: bool, check_triangle: bool,
+                       batch: bool) -> None:
+        """Validate principal moments ``(N, 3)``; the message names the first bad body."""
         what = "eigenvalue of the inertia tensor" if tensor_input else "principal moment"
-        scale = float(np.max(np.abs(moments)))
-        for k in range(3):
-            if moments[k] < -ZERO_RTOL * scale:
-                raise ValueError(
-                    f"inertia must be positive definite: {what} {_AXIS_NAMES[k]} = "
-                    f"{float(moments[k])!r} is negative; moments of inertia are > 0"
-                )
-        for k in range(3):
-            if abs(moments[k]) <= ZERO_RTOL * scale:
-                raise ValueError(
-                    f"inertia has a zero principal moment ({what} {_AXIS_NAMES[k]} = "
-                    f"{float(moments[k])!r}, below {ZERO_RTOL:.0e} x the largest): an ideal thin "
-                    "rod or dumbbell (all mass on one line, I3 = 0) has no finite "
-                    "rotational dynamics about that axis "
-                    "(omega = L / I is undefined). Give it a small thickness, e.g. "
-                    "liebody.inertia.solid_cylinder instead of thin_rod."
-                )
-        for k in range(3):
-            if not MOMENT_MIN <= moments[k] <= MOMENT_MAX:
-                raise ValueError(
-                    f"inertia: {what} {_AXIS_NAMES[k]} = {float(moments[k]):.6g} is outside "
-                    f"[{MOMENT_MIN:g}, {MOMENT_MAX:g}]: the integrators form products of "
-                    f"three moments (I1 I2 I3), which would {'over' if moments[k] > 1 else 'under'}"
-                    f"flow float64; rescale the units, e.g. kg km^2 instead of kg m^2 "
-                    f"(1 kg km^2 = 1e6 kg m^2), and L or omega with them"
-                )
+        scale = np.max(np.abs(moments), axis=-1, keepdims=True)
+
+        def first(bad: np.ndarray) -> tuple[str, int, int] | None:
+            if not bad.any():
+                return None
+            n, k = np.argwhere(bad)[0]
+            return (f"body {n}: " if batch else ""), int(n), int(k)
+
+        hit = first(moments < -ZERO_RTOL * scale)
+        if hit:
+            who, n, k = hit
+            raise ValueError(
+                f"inertia must be positive definite: {who}{what} {_AXIS_NAMES[k]} = "
+                f"{float(moments[n, k])!r} is negative; moments of inertia are > 0")
+        hit = first(np.abs(moments) <= ZERO_RTOL * scale)
+        if hit:
+            who, n, k = hit
+            raise ValueError(
+                f"inertia has a zero principal moment ({who}{what} {_AXIS_NAMES[k]} = "
+                f"{float(moments[n, k])!r}, below {ZERO_RTOL:.0e} x the largest): an ideal thin "
+                "rod or dumbbell (all mass on one line, I3 = 0) has no finite "
+                "rotational dynamics about that axis "
+                "(omega = L / I is undefined). Give it a small thickness, e.g. "
+                "liebody.inertia.solid_cylinder instead of thin_rod.")
+        hit = first(~((MOMENT_MIN <= moments) & (moments <= MOMENT_MAX)))
+        if hit:
+            who, n, k = hit
+            v = float(moments[n, k])
+            raise ValueError(
+                f"inertia: {who}{what} {_AXIS_NAMES[k]} = {v:.6g} is outside "
+                f"[{MOMENT_MIN:g}, {MOMENT_MAX:g}]: the integrators form products of "
+                f"three moments (I1 I2 I3), which would {'over' if v > 1 else 'under'}"
+                f"flow float64; rescale the units, e.g. kg km^2 instead of kg m^2 "
+                f"(1 kg km^2 = 1e6 kg m^2), and L or omega with them")
         if check_triangle:
             for k in range(3):
                 i, j = (k + 1) % 3, (k + 2) % 3
-                if moments[i] + moments[j] < moments[k] - TRIANGLE_RTOL * scale:
-                    ni, nj, nk = (_AXIS_NAMES[n] for n in sorted((i, j)) + [k])
+                hit = first((moments[:, i] + moments[:, j]
+                             < moments[:, k] - TRIANGLE_RTOL * scale[:, 0])[:, None])
+                if hit:
+                    who, n, _ = hit
+                    ni, nj, nk = (_AXIS_NAMES[m] for m in sorted((i, j)) + [k])
                     raise ValueError(
-                        "inertia principal moments violate the triangle inequality "
-                        f"I_i + I_j >= I_k: {ni} + {nj} = {float(moments[i] + moments[j])!r} < "
-                        f"{nk} = {float(moments[k])!r}. No real body has these moments; pass "
+                        f"inertia principal moments violate the triangle inequality "
+                        f"I_i + I_j >= I_k: {who}{ni} + {nj} = "
+                        f"{float(moments[n, i] + moments[n, j])!r} < {nk} = "
+                        f"{float(moments[n, k])!r}. No real body has these moments; pass "
                         "check_triangle=False to use them anyway (e.g. the "
-                        "Hairer-Lubich-Wanner test problem I = (2, 1, 2/3))."
-                    )
+                        "Hairer-Lubich-Wanner test problem I = (2, 1, 2/3)).")
+
+    # ----------------------------------------------------------------------------------
+    # bodies of a batch
+    # ----------------------------------------------------------------------------------
+
+    @classmethod
+    def batch(cls, inertia, mass=None, check_triangle: bool = True) -> RigidBody:
+        """``N`` bodies in one object: principal moments ``(N, 3)`` or tensors ``(N, 3, 3)``.
+
+        An ensemble of different inertias for :func:`liebody.integrate`, validated as
+        :class:`RigidBody` validates one body (a message names the first bad body). The
+        attributes carry the body axis: ``moments`` ``(N, 3)``, ``axes`` and
+        ``inertia_tensor`` ``(N, 3, 3)``, ``mass`` a float or ``(N,)``,
+        ``symmetry_axis`` an int array (``-1``: not a symmetric top), ``is_symmetric``
+        and ``is_spherical`` bool arrays; ``len(bodies)`` is ``N`` and ``bodies[i]`` is
+        body ``i`` as a single :class:`RigidBody`.
+        """
+        return cls(inertia, mass, check_triangle, _batch=True)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """``()`` for one body, ``(N,)`` for a batch of ``N`` bodies."""
+        return self._moments.shape[:-1]
+
+    def __len__(self) -> int:
+        if not self.shape:
+            raise TypeError("a single RigidBody has no len(); a batch of bodies has")
+        return self.shape[0]
+
+    def __getitem__(self, i) -> RigidBody:
+        """Body ``i`` of a batch, as a single :class:`RigidBody`."""
+        if not self.shape:
+            raise TypeError("a single RigidBody cannot be indexed; a batch of bodies can")
+        i = int(i)
+        mass = self._mass if self._mass is None or np.ndim(self._mass) == 0 else self._mass[i]
+        out = RigidBody.__new__(RigidBody)
+        out._moments = _readonly(self._moments[i])
+        out._axes = _readonly(self._axes[i])
+        out._tensor = _readonly(self._tensor[i])
+        out._equal = self._equal[i]
+        out._mass = None if mass is None else float(mass)
+        return out
 
     # ----------------------------------------------------------------------------------
     # constructors
@@ -296,29 +369,47 @@ class RigidBody:
         return self._tensor
 
     @property
-    def mass(self) -> float | None:
-        """Total mass, or ``None``."""
+    def mass(self):
+        """Total mass, or ``None`` (an array ``(N,)`` for a batch given one per body)."""
         return self._mass
 
     @property
-    def symmetry_axis(self) -> int | None:
-        """Index of the distinct moment of a symmetric top, else ``None``."""
-        return self._symmetry_axis
+    def symmetry_axis(self):
+        """Index of the distinct moment of a symmetric top, else ``None``.
+
+        For a batch, an int array ``(N,)`` with ``-1`` where a body is not a symmetric top.
+        """
+        e = np.asarray(self._equal)
+        axis = np.where(e.sum(axis=-1) == 1, 2 * e[..., 0] + e[..., 1] + 0 * e[..., 2], -1)
+        # the distinct moment of pair (0, 1) is 2, of (0, 2) is 1, of (1, 2) is 0
+        if not self.shape:
+            return None if axis < 0 else int(axis)
+        return axis
 
     @property
-    def is_symmetric(self) -> bool:
-        """Exactly two equal moments (symmetric, not spherical, top)."""
-        return self._symmetry_axis is not None
+    def is_symmetric(self):
+        """Exactly two equal moments (symmetric, not spherical, top); per body for a batch."""
+        out = np.asarray(self._equal).sum(axis=-1) == 1
+        return bool(out) if not self.shape else out
 
     @property
-    def is_spherical(self) -> bool:
-        """All three moments equal."""
-        return len(self._free_axes) == 3
+    def is_spherical(self):
+        """All three moments equal; per body for a batch."""
+        out = np.asarray(self._equal).sum(axis=-1) >= 2
+        return bool(out) if not self.shape else out
 
     @property
     def free_axes(self) -> tuple[int, ...]:
         """Indices of principal axes not fixed by the inertia (degenerate moments)."""
-        return self._free_axes
+        if self.shape:
+            raise TypeError("free_axes is per body: take one body of the batch, body[i]")
+        e = self._equal
+        if e.sum() >= 2:
+            return (0, 1, 2)
+        for p, pair in enumerate(_PAIRS):
+            if e[p]:
+                return pair
+        return ()
 
     # ----------------------------------------------------------------------------------
     # dynamics helpers (T and L in the principal axis system), vectorised over (..., 3)
@@ -352,16 +443,18 @@ class RigidBody:
 
     def to_principal(self, v) -> np.ndarray:
         """Components along the principal axes of a vector given in the input frame:
-        ``axes.T @ v``, vectorised over (..., 3)."""
+        ``axes.T @ v``, vectorised over (..., 3) (per body for a batch)."""
         x = as_float_array("v", v, last_dim=3)
-        return x @ self._axes
+        return np.einsum("...i,...ij->...j", x, self._axes)
 
     def from_principal(self, v) -> np.ndarray:
         """Input-frame components of a vector given along the principal axes:
-        ``axes @ v``, vectorised over (..., 3)."""
+        ``axes @ v``, vectorised over (..., 3) (per body for a batch)."""
         x = as_float_array("v", v, last_dim=3)
-        return x @ self._axes.T
+        return np.einsum("...j,...ij->...i", x, self._axes)
 
     def __repr__(self) -> str:
+        if self.shape:
+            return f"RigidBody(<batch of {len(self)} bodies>)"
         moments = [float(x) for x in self._moments]
         return f"RigidBody(moments={moments!r}, mass={self._mass!r})"

@@ -111,7 +111,7 @@ class TorqueModel:
     """
 
     code: int = TORQUE_NONE
-    constants: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    constants: object = (0.0, 0.0, 0.0)  # (3,), or (N, 3) for a batch of bodies
     callback: object = None
     function: object = None
 
@@ -121,8 +121,9 @@ class TorqueModel:
 
     @classmethod
     def gravity(cls, weight_arm) -> TorqueModel:
-        """Uniform gravity ``-g e_z`` on a body whose ``M g cm`` is ``weight_arm``."""
-        return cls(TORQUE_GRAVITY, tuple(float(v) for v in weight_arm))
+        """Uniform gravity ``-g e_z`` on a body whose ``M g cm`` is ``weight_arm`` (``(3,)``,
+        or ``(N, 3)`` for a batch)."""
+        return cls(TORQUE_GRAVITY, np.array(weight_arm, dtype=float))
 
     @classmethod
     def user(cls, torque) -> TorqueModel:
@@ -146,8 +147,14 @@ class Scene:
         return self.body.moments
 
     @property
-    def dissipation(self) -> float:
-        """Strength ``eps`` of the internal dissipation (0 for none)."""
+    def batch_shape(self) -> tuple[int, ...]:
+        """``()`` for one body; ``(N,)`` when the scene's parameters describe ``N`` bodies
+        (a :meth:`RigidBody.batch`, or per-body parameters of a torqued scene)."""
+        return self.body.shape
+
+    @property
+    def dissipation(self):
+        """Strength ``eps`` of the internal dissipation (0 for none; ``(N,)`` per body)."""
         return 0.0
 
     def potential(self, q: np.ndarray) -> np.ndarray:
@@ -232,44 +239,65 @@ class HeavyTop(Scene):
     """
 
     body: RigidBody
-    mass: float
+    mass: float | np.ndarray
     cm: np.ndarray
-    g: float
+    g: float | np.ndarray
     free_flow: str
 
-    def __init__(self, body: RigidBody, mass: float, cm, g: float = 9.81,
-                 free_flow: str = "auto") -> None:
+    def __init__(self, body: RigidBody, mass, cm, g=9.81, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
-        cm_arr = as_float_array("cm", cm, shape=(3,)).copy()
+        cm_arr = as_float_array("cm", cm, last_dim=3).copy()
+        mass_arr = _positive("mass", mass)
+        g_arr = _positive("g", g)
+        for name, a in (("cm", cm_arr[..., 0]), ("mass", mass_arr), ("g", g_arr)):
+            if np.ndim(a) > 1:
+                raise ValueError(f"{name} must be one value per body at most, got shape "
+                                 f"{np.shape(a)}")
+        try:
+            np.broadcast_shapes(body.shape, cm_arr.shape[:-1], np.shape(mass_arr),
+                                np.shape(g_arr))
+        except ValueError:
+            raise ValueError(
+                f"the body ({body.shape[0] if body.shape else 1} bodies), mass "
+                f"{np.shape(mass_arr)}, cm {cm_arr.shape} and g {np.shape(g_arr)} must "
+                f"describe the same number of bodies") from None
         cm_arr.flags.writeable = False
-        object.__setattr__(self, "mass", as_positive_float("mass", mass))
+        object.__setattr__(self, "mass", mass_arr)
         object.__setattr__(self, "cm", cm_arr)
-        object.__setattr__(self, "g", as_positive_float("g", g))
+        object.__setattr__(self, "g", g_arr)
 
     @property
     def capabilities(self) -> Capabilities:
         return Capabilities(torque=frozenset({"orientation"}), conservative=True)
 
     @property
+    def batch_shape(self) -> tuple[int, ...]:
+        return np.broadcast_shapes(self.body.shape, self.cm.shape[:-1], np.shape(self.mass),
+                                   np.shape(self.g))
+
+    @property
     def weight_arm(self) -> np.ndarray:
-        """``c = mass * g * cm`` (body frame): ``V = c . Gamma``."""
-        return self.mass * self.g * self.cm
+        """``c = mass * g * cm`` (body frame): ``V = c . Gamma``; ``(N, 3)`` per body."""
+        return (np.asarray(self.mass) * np.asarray(self.g))[..., None] * self.cm
 
     def potential(self, q: np.ndarray) -> np.ndarray:
         """``V = mass g (R(q) cm) . e_z = c . Gamma`` at orientations ``q`` ``(..., 4)``.
 
         ``q`` is normalised first: the potential of the rotation it stands for (the
-        baselines let ``|q|`` drift).
+        baselines let ``|q|`` drift). For a batch of tops, ``q`` has the body axis first
+        (``(N, ..., 4)``).
         """
         from liebody import quaternion
 
         gamma = quaternion.rotate_inverse(quaternion.normalize(q), [0.0, 0.0, 1.0])
-        return gamma @ self.weight_arm
+        return np.sum(gamma * _per_body(self.weight_arm, gamma), axis=-1)
 
     def torque_model(self) -> TorqueModel:
         return TorqueModel.gravity(self.weight_arm)
 
     def __repr__(self) -> str:
+        if self.batch_shape:
+            return f"{type(self).__name__}(<batch of {self.batch_shape[0]} tops>)"
         return (f"{type(self).__name__}(body={self.body!r}, mass={self.mass:g}, "
                 f"cm={self.cm.tolist()}, g={self.g:g})")
 
@@ -380,12 +408,25 @@ class DampedBody(Scene):
     """
 
     body: RigidBody
-    eps: float
+    eps: float | np.ndarray
     free_flow: str
 
-    def __init__(self, body: RigidBody, eps: float, free_flow: str = "auto") -> None:
+    def __init__(self, body: RigidBody, eps, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
-        object.__setattr__(self, "eps", as_positive_float("eps", eps))
+        eps = _positive("eps", eps)
+        try:
+            if np.ndim(eps) > 1:
+                raise ValueError
+            np.broadcast_shapes(body.shape, np.shape(eps))
+        except ValueError:
+            raise ValueError(f"eps must be one value, or one per body, got shape "
+                             f"{np.shape(eps)} for {body.shape[0] if body.shape else 1} "
+                             f"bodies") from None
+        object.__setattr__(self, "eps", eps)
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        return np.broadcast_shapes(self.body.shape, np.shape(self.eps))
 
     @property
     def capabilities(self) -> Capabilities:
@@ -394,6 +435,28 @@ class DampedBody(Scene):
     @property
     def dissipation(self) -> float:
         return self.eps
+
+
+def _positive(name: str, value):
+    """A positive finite number, or an array of them (one per body)."""
+    if np.ndim(value) == 0:
+        return as_positive_float(name, value)
+    arr = as_float_array(name, value)
+    if np.any(arr <= 0):
+        raise ValueError(f"{name} must be > 0 for every body, got {arr.min():g} at index "
+                         f"{int(np.argmin(arr))}")
+    arr = arr.copy()
+    arr.flags.writeable = False
+    return arr
+
+
+def _per_body(param: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A per-body parameter ``(N, k)`` shaped to broadcast against ``values`` ``(N, ..., k)``
+    (unchanged when it is one body's ``(k,)``)."""
+    param = np.asarray(param)
+    if param.ndim < 2:
+        return param
+    return param.reshape(param.shape[:1] + (1,) * (values.ndim - 2) + param.shape[1:])
 
 
 _CALLBACKS: dict = {}

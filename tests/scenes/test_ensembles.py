@@ -1,0 +1,238 @@
+"""Ensembles: N bodies in one integrate() call.
+
+The reference for every body is the one-body call with that body's state and
+parameters: the ensemble's numbers must be the same, bit for bit (each body runs the
+same one-body loop). Failures are per body, memory is the saved samples only, and the
+running diagnostics equal the same measures taken over every saved step.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba import njit
+
+import liebody
+from liebody import quaternion as Q
+
+N = 40
+RNG = np.random.default_rng(12)
+MOMENTS = RNG.uniform(1.0, 3.0, size=(N, 3))
+MOMENTS[:8, 1] = MOMENTS[:8, 0]  # a few symmetric bodies: another plan group
+L0 = RNG.normal(size=(N, 3))
+Q0 = Q.random(N, rng=13)
+MASS = RNG.uniform(1.0, 3.0, N)
+CM = np.column_stack([RNG.normal(scale=0.1, size=(N, 2)), RNG.uniform(0.5, 1.0, N)])
+SPIN = np.column_stack([np.zeros((N, 2)), RNG.uniform(20.0, 40.0, N)])
+EPS = RNG.uniform(0.05, 2.0, N)
+
+
+@njit
+def _drag(t, q, L):
+    return -0.2 * L + np.array([0.0, 0.0, 0.05 * np.sin(t)])
+
+
+def _scenes():
+    bodies = liebody.RigidBody.batch(MOMENTS, check_triangle=False)
+    top_body = liebody.RigidBody([5.0, 5.0, 1.0])
+    return {
+        "free": (liebody.FreeBody(bodies), lambda i: liebody.FreeBody(bodies[i]),
+                 {"L0": L0, "q0": Q0}, lambda i: {"L0": L0[i], "q0": Q0[i]}),
+        "top": (liebody.HeavyTop(top_body, mass=MASS, cm=CM, g=9.81),
+                lambda i: liebody.HeavyTop(top_body, MASS[i], CM[i], 9.81),
+                {"omega0": SPIN, "q0": Q.exp([0.3, 0.0, 0.0])},
+                lambda i: {"omega0": SPIN[i], "q0": Q.exp([0.3, 0.0, 0.0])}),
+        "torque": (liebody.TorqueBody(bodies, _drag),
+                   lambda i: liebody.TorqueBody(bodies[i], _drag),
+                   {"L0": L0, "q0": Q0}, lambda i: {"L0": L0[i], "q0": Q0[i]}),
+        "damped": (liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 2.5]), EPS),
+                   lambda i: liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 2.5]), EPS[i]),
+                   {"L0": L0, "q0": Q0}, lambda i: {"L0": L0[i], "q0": Q0[i]}),
+    }
+
+
+CASES = [(scene, m.name) for scene, (ens, *_) in _scenes().items()
+         for m in liebody.methods() if m.supports(ens)]
+
+
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # baselines drift
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # explicit Euler may blow up per body
+@pytest.mark.parametrize(("scene", "method"), CASES)
+def test_every_body_equals_its_one_body_run(scene, method):
+    """Every method and scene: body i of the ensemble is the one-body call, bit for bit."""
+    ens, one, kw, kw_one = _scenes()[scene]
+    dt = 1e-3 if scene == "top" else 0.01
+    tr = liebody.integrate(ens, dt=dt, steps=300, method=method, save_every=37, **kw)
+    assert tr.n_bodies == N and tr.q.shape == (N, len(tr), 4) and tr.t.shape == (len(tr),)
+    for i in (0, 3, 9, 17, N - 1):
+        ref = liebody.integrate(one(i), dt=dt, steps=300, method=method, save_every=37,
+                                **kw_one(i))
+        if ref.status == "failed":
+            assert tr.status[i] == "failed: non-finite state"
+            k = len(ref)
+            np.testing.assert_array_equal(tr.q[i, :k], ref.q)
+            assert np.isnan(tr.q[i, k:]).all() and tr.failed_at[i] == ref.failed_at
+            continue
+        np.testing.assert_array_equal(tr.q[i], ref.q)
+        np.testing.assert_array_equal(tr.L[i], ref.L)
+        np.testing.assert_array_equal(tr.t, ref.t)
+        np.testing.assert_allclose(tr.energy[i], ref.energy, rtol=1e-14, atol=1e-14)
+
+
+def test_a_single_state_broadcasts_and_shapes_are_checked(hlw):
+    scene, L = hlw
+    tr = liebody.integrate(scene, q0=Q0, L0=L, dt=0.1, steps=10, method="splitting2")
+    assert tr.q.shape == (N, 11, 4)
+    np.testing.assert_array_equal(tr.L, np.broadcast_to(tr.L[0], tr.L.shape))  # same L path
+    with pytest.raises(ValueError, match=r"numbers of bodies do not match: q0 40, L0/omega0 7"):
+        liebody.integrate(scene, q0=Q0, L0=L0[:7], dt=0.1, steps=10)
+    with pytest.raises(ValueError, match=r"q0 must be one state .* or one per body"):
+        liebody.integrate(scene, q0=Q0.reshape(4, 10, 4), L0=L, dt=0.1, steps=10)
+    bodies = liebody.RigidBody.batch(MOMENTS, check_triangle=False)
+    with pytest.raises(ValueError, match="numbers of bodies do not match"):
+        liebody.integrate(liebody.FreeBody(bodies), L0=L0[:5], dt=0.1, steps=10)
+
+
+def test_trajectory_diagnostics_work_per_body():
+    ens, one, kw, kw_one = _scenes()["top"]
+    tr = liebody.integrate(ens, dt=1e-3, steps=200, save_every=20, **kw)
+    ref = liebody.integrate(one(5), dt=1e-3, steps=200, save_every=20, **kw_one(5))
+    for name in ("energy", "kinetic_energy", "potential_energy", "L_space", "omega_space",
+                 "omega", "casimir", "quaternion_norm"):
+        got = np.broadcast_to(getattr(tr, name), getattr(tr, name).shape)
+        assert got.shape[:2] == (N, len(tr)), name
+        np.testing.assert_allclose(got[5], getattr(ref, name), rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(tr.euler_angles(unwrap=True)[5], ref.euler_angles(unwrap=True),
+                               atol=1e-12)
+    assert repr(tr).startswith("Trajectory(method='splitting2', dt=0.001, bodies=40")
+
+
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # euler's |q| grows
+def test_failures_are_per_body(hlw):
+    """A body that blows up is marked and its later samples are NaN; the others finish."""
+    scene, L = hlw
+    Ls = np.tile(L, (6, 1))
+    Ls[2] *= 1e3  # explicit Euler at h|omega| ~ 14: non-finite within a few hundred steps
+    with pytest.warns(RuntimeWarning, match=r"euler: 1 of 6 bodies failed: 1 non-finite "
+                                            r"state \(e.g. body 2 at t = "):
+        tr = liebody.integrate(scene, L0=Ls, dt=0.01, steps=2000, method="euler",
+                               save_every=10)
+    assert np.isnan(tr.failed_at[[0, 1, 3, 4, 5]]).all() and tr.failed_at[2] > 0
+    assert list(tr.status).count("complete") == 5 and tr.status[2].startswith("failed")
+    k = int(tr.failed_at[2] // 0.1)  # samples every 0.1 time units
+    assert np.isfinite(tr.q[2, :k]).all() and np.isnan(tr.q[2, k + 1:]).all()
+    assert np.isfinite(tr.q[[0, 1, 3, 4, 5]]).all()
+    assert np.isnan(tr.energy[2, -1]) and np.isfinite(tr.energy[0]).all()
+
+
+def test_dmv_non_convergence_is_per_body_too(hlw):
+    scene, L = hlw
+    Ls = np.tile(L, (4, 1))
+    Ls[1] *= 1e4
+    with pytest.warns(RuntimeWarning, match="1 DMV equation not solved"):
+        tr = liebody.integrate(scene, L0=Ls, dt=0.1, steps=20, method="rattle")
+    assert tr.status[1] == "failed: DMV equation not solved"
+    assert np.isfinite(tr.q[[0, 2, 3]]).all()
+
+
+def test_final_state_only_with_running_diagnostics_needs_little_memory():
+    """10 000 bodies, no samples kept but the start and the end: kilobytes per body, and
+    the in-kernel diagnostics equal the same measures over every step of a saved run."""
+    n = 10_000
+    bodies = liebody.RigidBody.batch(np.tile([1.0, 2.0, 2.5], (n, 1)) * RNG.uniform(
+        0.9, 1.1, size=(n, 1)))
+    L = RNG.normal(size=(n, 3))
+    tr = liebody.integrate(liebody.FreeBody(bodies), L0=L, dt=0.01, steps=2000,
+                           method="splitting2", save_every=None, diagnostics=True)
+    assert tr.q.shape == (n, 2, 4) and tr.q.nbytes + tr.L.nbytes == n * 2 * 56
+    d = tr.diagnostics
+    assert all(v.shape == (n,) for v in d.values())
+    assert d["max_qnorm_error"].max() < 1e-13 and d["max_casimir_error"].max() < 1e-13
+    few = slice(0, 20)
+    full = liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(bodies.moments[few])),
+                             L0=L[few], dt=0.01, steps=2000, method="splitting2",
+                             save_every=1)
+    E = full.energy
+    dE = np.max(np.abs(E - E[:, :1]) / full.kinetic_energy[:, :1], axis=1)
+    np.testing.assert_allclose(d["max_energy_error"][few], dE, rtol=1e-9)
+    assert dE.min() > 1e-9  # the splitting's energy error, not round-off, is compared
+
+
+def test_threads_do_not_change_a_bit(hlw):
+    scene, L = hlw
+    Ls = L * RNG.uniform(0.5, 2.0, size=(500, 1))
+    a = liebody.integrate(scene, L0=Ls, dt=0.01, steps=1000, method="splitting4", threads=1,
+                          save_every=100)
+    b = liebody.integrate(scene, L0=Ls, dt=0.01, steps=1000, method="splitting4", threads=2,
+                          save_every=100)
+    np.testing.assert_array_equal(a.q, b.q)
+    with pytest.raises(ValueError, match="threads must be a positive integer or None"):
+        liebody.integrate(scene, L0=Ls, dt=0.01, steps=10, threads=0)
+
+
+_CHILD = textwrap.dedent("""
+    import json, numpy as np, liebody
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    L = np.random.default_rng(0).normal(size=(200, 3))
+    liebody.integrate(scene, L0=L[:3], dt=1e-3, steps=10, method="splitting2")
+    print("ready", flush=True)
+    try:
+        liebody.integrate(scene, L0=L, dt=1e-3, steps=10**7, method="splitting2",
+                          save_every=10**4)
+    except KeyboardInterrupt as exc:
+        tr = exc.trajectory
+        print(json.dumps({"shape": list(tr.q.shape), "status": sorted(set(tr.status)),
+                          "finite": bool(np.isfinite(tr.q).all())}), flush=True)
+""")
+
+
+def test_ctrl_c_keeps_an_ensembles_samples():
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[2])
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(2.0)
+        proc.send_signal(signal.SIGINT)
+        line = proc.stdout.readline()
+        proc.wait(timeout=60)
+    finally:
+        proc.kill()
+    assert line, proc.stderr.read()
+    out = json.loads(line)
+    assert out["shape"][0] == 200 and out["shape"][1] >= 2 and out["finite"]
+    assert out["status"] == ["interrupted"]
+
+
+def test_batch_bodies_validate_and_index():
+    with pytest.raises(ValueError, match=r"body 3: principal moment I1 = -1.0 is negative"):
+        liebody.RigidBody.batch([[1, 2, 2.5]] * 3 + [[-1, 2, 2.5]])
+    with pytest.raises(ValueError, match=r"body 1: I1 \+ I2 = 3.0 < I3 = 9.0"):
+        liebody.RigidBody.batch([[1, 2, 2.5], [1, 2, 9.0]])
+    with pytest.raises(ValueError, match=r"a batch of bodies: RigidBody.batch"):
+        liebody.RigidBody(MOMENTS)
+    b = liebody.RigidBody.batch(MOMENTS, mass=MASS, check_triangle=False)
+    assert len(b) == N and b.moments.shape == (N, 3) and b.axes.shape == (N, 3, 3)
+    one = b[4]
+    assert isinstance(one, liebody.RigidBody) and one.mass == MASS[4]
+    np.testing.assert_array_equal(one.moments, b.moments[4])
+    assert list(b.symmetry_axis[:8]) == [2] * 8 and b.is_symmetric[:8].all()
+    tensors = np.einsum("nij,nj,nkj->nik", Q.to_matrix(Q0), MOMENTS, Q.to_matrix(Q0))
+    bt = liebody.RigidBody.batch(tensors, check_triangle=False)
+    for i in (0, 11):
+        ref = liebody.RigidBody(tensors[i], check_triangle=False)
+        np.testing.assert_array_equal(bt[i].moments, ref.moments)
+        np.testing.assert_array_equal(bt[i].axes, ref.axes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(b.kinetic_energy(L0 / MOMENTS),
+                                   0.5 * np.sum(L0 * L0 / MOMENTS, axis=1), rtol=1e-15)
