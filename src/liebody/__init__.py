@@ -41,6 +41,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "lagrange_top": ("liebody.lagrange_top", None),
     "analysis": ("liebody.analysis", None),
     "bodies": ("liebody.bodies", None),
+    "distributed": ("liebody.distributed", None),
     "integrate": ("liebody._integrate", "integrate"),
     "errors": ("liebody.errors", None),
     "ConvergenceError": ("liebody.errors", "ConvergenceError"),
@@ -62,6 +63,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from liebody import (  # noqa: F401
         analysis,
         bodies,
+        distributed,
         errors,
         euler,
         inertia,

@@ -318,17 +318,22 @@ class RigidBody:
         return self.shape[0]
 
     def __getitem__(self, i) -> RigidBody:
-        """Body ``i`` of a batch, as a single :class:`RigidBody`."""
+        """Body ``i`` of a batch as a single :class:`RigidBody`; a slice or an index array
+        gives a smaller batch."""
         if not self.shape:
             raise TypeError("a single RigidBody cannot be indexed; a batch of bodies can")
-        i = int(i)
-        mass = self._mass if self._mass is None or np.ndim(self._mass) == 0 else self._mass[i]
+        single = np.ndim(i) == 0 and not isinstance(i, slice)
+        if single:
+            i = int(i)
+        mass = self._mass
+        if mass is not None and np.ndim(mass):
+            mass = float(mass[i]) if single else _readonly(mass[i])
         out = RigidBody.__new__(RigidBody)
         out._moments = _readonly(self._moments[i])
         out._axes = _readonly(self._axes[i])
         out._tensor = _readonly(self._tensor[i])
         out._equal = self._equal[i]
-        out._mass = None if mass is None else float(mass)
+        out._mass = mass
         return out
 
     # ----------------------------------------------------------------------------------

@@ -137,6 +137,25 @@ class Scene:
     default_method: ClassVar[str] = "splitting2"
     body: RigidBody
     free_flow: str = "auto"
+    #: parameters that may be given per body, with the rank of one body's value
+    #: (0: a number, 1: a vector); :meth:`take` slices them
+    per_body: ClassVar[dict[str, int]] = {}
+
+    def take(self, idx) -> Scene:
+        """The scene of bodies ``idx`` (a slice or an index array) of a batched scene;
+        unbatched parameters are shared. Used to split an ensemble into chunks."""
+        import copy
+
+        out = copy.copy(self)
+        if self.body.shape:
+            object.__setattr__(out, "body", self.body[idx])
+        for name, rank in self.per_body.items():
+            value = getattr(self, name)
+            if np.ndim(value) > rank:
+                part = np.asarray(value)[idx].copy()
+                part.flags.writeable = False
+                object.__setattr__(out, name, part)
+        return out
 
     @property
     def capabilities(self) -> Capabilities:  # pragma: no cover - abstract
@@ -243,6 +262,8 @@ class HeavyTop(Scene):
     cm: np.ndarray
     g: float | np.ndarray
     free_flow: str
+
+    per_body: ClassVar[dict[str, int]] = {"mass": 0, "cm": 1, "g": 0}
 
     def __init__(self, body: RigidBody, mass, cm, g=9.81, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
@@ -410,6 +431,8 @@ class DampedBody(Scene):
     body: RigidBody
     eps: float | np.ndarray
     free_flow: str
+
+    per_body: ClassVar[dict[str, int]] = {"eps": 0}
 
     def __init__(self, body: RigidBody, eps, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
