@@ -101,15 +101,15 @@ def observed_order(error: Callable[[int], float], n0: int, t_end: float, *,
 
 
 def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: np.ndarray,
-          torque_fn=None, runners=None):
+          torque_addr=0, runners=None):
     """Call the driver kernel of the plan's family directly (one slice from step 0, saving
     every step)."""
     if runners is None:
         from liebody._kernels.driver import RUNNERS as runners
     ctl = np.array([1, 0], dtype=np.int64)
     return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
-                                plan.merge_ends, h, 0, n, 1, True, state, ctl, q_out, m_out,
-                                torque_fn, np.zeros(10), np.zeros(3))
+                                plan.merge_ends, h, 0.0, n, 1, True, state, ctl, q_out, m_out,
+                                torque_addr, np.zeros(10), np.zeros(3))
 
 
 def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):

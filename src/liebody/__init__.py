@@ -38,6 +38,8 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "HeavyTop": ("liebody.scenes", "HeavyTop"),
     "TorqueBody": ("liebody.scenes", "TorqueBody"),
     "DampedBody": ("liebody.scenes", "DampedBody"),
+    "ControlledBody": ("liebody.scenes", "ControlledBody"),
+    "Stepper": ("liebody._stepper", "Stepper"),
     "lagrange_top": ("liebody.lagrange_top", None),
     "analysis": ("liebody.analysis", None),
     "bodies": ("liebody.bodies", None),
@@ -72,6 +74,7 @@ if TYPE_CHECKING:  # pragma: no cover
     )
     from liebody._integrate import integrate  # noqa: F401
     from liebody._methods import Handles, Method, methods, register  # noqa: F401
+    from liebody._stepper import Stepper  # noqa: F401
     from liebody.errors import (  # noqa: F401
         CacheWarning,
         ConvergenceError,
@@ -83,6 +86,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from liebody.rigid_body import RigidBody  # noqa: F401
     from liebody.scenes import (  # noqa: F401
         Capabilities,
+        ControlledBody,
         DampedBody,
         FreeBody,
         HeavyTop,

@@ -48,7 +48,7 @@ class EnsembleRun:
     """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 threads, diagnostics=False):
+                 threads, diagnostics=False, u=None):
         from liebody._integrate import diagnostic_reference, time_slices
 
         self.scene, self.method, self.dt = scene, method, dt
@@ -56,6 +56,7 @@ class EnsembleRun:
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
         self.threads = threads
+        self.u = u  # the controls: (k,) or (N, k), or None
         self.slices = time_slices
         n, k = q0.shape[0], t.shape[0]
         self.q_out = np.empty((n, k, 4))
@@ -150,7 +151,13 @@ class EnsembleRun:
         whole = len(idx) == self.n
         sel = slice(None) if whole else idx
         # "saved" starts at 1: the kernel writes sample 1 + (samples saved so far)
-        g = {"idx": idx, "plan": plan, "runner": runner, "whole": whole,
+        params = plan.params
+        if self.u is not None:
+            from liebody._integrate import write_controls
+
+            params = params.copy()
+            write_controls(params, self.u if self.u.ndim == 1 else self.u[sel])
+        g = {"idx": idx, "plan": plan, "params": params, "runner": runner, "whole": whole,
              "state": np.ascontiguousarray(np.concatenate([self.q0[sel], self.m0[sel]], axis=1)),
              "ctl": np.tile(np.array([self.save_every, 0], dtype=np.int64), (len(idx), 1)),
              "saved": np.ones(len(idx), dtype=np.int64),
@@ -166,10 +173,11 @@ class EnsembleRun:
 
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
         p = g["plan"]
-        g["runner"](p.kinds, p.axes, p.coefs, p.clock, p.params[c], p.merge_ends and not self.diag,
-                    self.dt, done, k, self.save_every, final, g["state"][c], g["ctl"][c],
+        g["runner"](p.kinds, p.axes, p.coefs, p.clock, g["params"][c],
+                    p.merge_ends and not self.diag, self.dt, float(done), k, self.save_every,
+                    final, g["state"][c], g["ctl"][c],
                     g["q"][c], g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
-                    self.model.callback, g["dref"][c], g["dmax"][c])
+                    self.model.address, g["dref"][c], g["dmax"][c])
 
     def _collect(self, work) -> None:
         for g in work:

@@ -51,6 +51,8 @@ SAMPLE_BYTES = 64
 MAX_STEPS = 2**53
 #: the largest |L| accepted: |L|^2 / (2 I) overflows float64 near 1e154
 MAX_MOMENTUM = 1e150
+#: samples up to this size skip the check of the available memory (a file read)
+SMALL_RUN_BYTES = 1 << 24
 #: wall time a slice of the run aims at: Ctrl-C is seen between slices
 SLICE_SECONDS = 0.2
 #: steps (or samples) in the first slice of a run; later slices are sized by the clock
@@ -79,7 +81,7 @@ def _initial_momentum(scene, L0, omega0) -> np.ndarray:
                              f"scene's moments of shape {np.shape(scene.moments)}") from None
         name = "omega0"
     _check_batch(name, m)
-    size = float(np.max(np.abs(m)))
+    size = max(map(abs, m.tolist())) if m.ndim == 1 else float(np.max(np.abs(m)))
     if not size <= MAX_MOMENTUM:
         raise ValueError(
             f"{name} is too large: its angular momentum reaches {size:.3g}, above "
@@ -146,7 +148,7 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> 
     n_samples = n_saves + 1
     per = _per_sample(bodies)
     need = n_samples * per
-    avail = _available_memory()
+    avail = None if need <= SMALL_RUN_BYTES else _available_memory()
     if avail is not None and need > avail:
         # suggest a save_every whose samples take at most half the available memory
         fit = max(1, avail // (2 * per) - 1)
@@ -200,7 +202,8 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
 
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, progress: bool = False,
-              threads: int | None = None, diagnostics: bool = False) -> Trajectory:
+              threads: int | None = None, diagnostics: bool = False,
+              controls=None) -> Trajectory:
     """Integrate a rigid-body scene with a fixed step.
 
     Parameters
@@ -243,6 +246,11 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         energy includes the potential of uniform gravity; it is NaN for a user torque's
         potential, which the kernel cannot call. First-same-as-last merging of
         splitting steps is off, so every step ends on a full step.)
+    controls
+        The control inputs ``u`` of a :class:`~liebody.ControlledBody`'s torque, held
+        for the whole run: ``(k,)``, or one row per body ``(N, k)`` (zeros when not
+        given). To change them during a run (a controller), use a
+        :class:`liebody.Stepper`, or integrate piece by piece.
 
     Ensembles
     ---------
@@ -294,32 +302,36 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     if not isinstance(diagnostics, bool | np.bool_):
         raise TypeError(f"diagnostics must be True or False, got {type(diagnostics).__name__}")
-    from liebody._ensemble import EnsembleRun, resolve_threads
-
-    threads = resolve_threads(threads)
     n_bodies = _bodies(scene, q_init, m_init)
+    if threads is not None or n_bodies is not None:
+        from liebody._ensemble import EnsembleRun, resolve_threads
+
+        threads = resolve_threads(threads)
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
     model = scene.torque_model()
+    u = as_controls(scene, controls, n_bodies)
     if n_bodies is None:
-        _check_torque(model, q_init, m_init)
+        _check_torque(model, q_init, m_init, u)
         t = _sample_times(n_steps, save_every, dt)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
-                   diagnostics)
+                   diagnostics, u)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
-        _check_torque(model, q_init[0], m_init[0])
+        _check_torque(model, q_init[0], m_init[0], _first_row(u))
         t = _sample_times(n_steps, save_every, dt, n_bodies)
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
-                          progress, threads, diagnostics)
+                          progress, threads, diagnostics, u)
     return run.sampled() if method.sampled else run.stepped()
 
 
 def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
     """The number of bodies of an ensemble run (``None`` for one body): the length of the
     body axis of ``q0``, of ``L0``/``omega0`` and of the scene's parameters, broadcast."""
+    if q0.ndim == 1 and m0.ndim == 1 and not scene_batch_shape(scene):
+        return None
     shapes = {"q0": q0.shape[:-1], "L0/omega0": m0.shape[:-1],
               "the scene's parameters": scene_batch_shape(scene)}
     try:
@@ -335,23 +347,60 @@ def scene_batch_shape(scene) -> tuple[int, ...]:
     return tuple(getattr(scene, "batch_shape", ()))
 
 
-def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray) -> None:
+def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None) -> None:
     """A user torque is called once on the initial state: three finite numbers, or a
     clear error before the run starts."""
     if model.function is None:
         return
-    name = getattr(model.function, "__name__", "torque")
+    sig = model.signature
     try:
-        value = np.asarray(model.function(0.0, q0.copy(), m0.copy()), dtype=float)
+        value = np.asarray(model(0.0, q0, m0, u), dtype=float)
     except Exception as exc:
-        raise TorqueError(f"the torque {name}(t, q, L) raised {type(exc).__name__} on the "
+        raise TorqueError(f"the torque {sig} raised {type(exc).__name__} on the "
                           f"initial state: {exc}", step=0, t=0.0) from exc
     if value.shape != (3,):
-        raise ValueError(f"the torque {name}(t, q, L) must return 3 numbers, got shape "
+        raise ValueError(f"the torque {sig} must return 3 numbers, got shape "
                          f"{value.shape} on the initial state")
     if not np.all(np.isfinite(value)):
-        raise TorqueError(f"the torque {name}(t, q, L) returned non-finite values "
+        raise TorqueError(f"the torque {sig} returned non-finite values "
                           f"{value.tolist()} on the initial state", step=0, t=0.0)
+
+
+def as_controls(scene, controls, n_bodies: int | None) -> np.ndarray | None:
+    """The control inputs ``u`` of a :class:`~liebody.ControlledBody`: ``(k,)``, or one
+    row per body ``(N, k)``; ``None`` for a scene without controls."""
+    k = getattr(scene, "controls", 0)
+    if not k:
+        if controls is not None:
+            raise ValueError(f"controls: the scene {type(scene).__name__} takes no control "
+                             f"inputs (use a liebody.ControlledBody)")
+        return None
+    if controls is None:
+        u = np.zeros(k)
+    else:
+        u = np.array(as_float_array("controls", controls, last_dim=k))
+        _check_batch("controls", u)
+    if u.ndim == 2 and (n_bodies is None or u.shape[0] != n_bodies):
+        told = "one body" if n_bodies is None else f"{n_bodies} bodies"
+        raise ValueError(f"controls of shape {u.shape} give one row per body for "
+                         f"{u.shape[0]} bodies, but the run has {told}")
+    return u
+
+
+def _first_row(u):
+    """The first body's controls (``None`` for none)."""
+    return None if u is None else u.reshape(-1, u.shape[-1])[0]
+
+
+def write_controls(params: np.ndarray, u: np.ndarray) -> None:
+    """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, s, P)``)
+    in the control slots of every stage's parameters (the stages that do not call the
+    torque ignore them)."""
+    k = u.shape[-1]
+    if u.ndim == 2:
+        params[..., S.P_U0:S.P_U0 + k] = u[:, None, :]
+    else:
+        params[..., S.P_U0:S.P_U0 + k] = u
 
 
 def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray) -> np.ndarray:
@@ -385,8 +434,9 @@ class _Run:
     """One call of :func:`integrate` after validation: runs it and reports the outcome."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 diagnostics=False):
+                 diagnostics=False, u=None):
         self.scene, self.method, self.dt = scene, method, dt
+        self.u = u
         self.q0, self.m0 = q0, m0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
@@ -441,22 +491,32 @@ class _Run:
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
         runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
-        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
+        params = plan.params[0]
+        if self.u is not None:
+            params = params.copy()
+            write_controls(params, self.u)
+        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
                  plan.merge_ends and not self.diag)
         state = np.concatenate([self.q0, self.m0])
         ctl = np.array([self.save_every, 0], dtype=np.int64)
+        addr = self.model.address
         done = saved = 0
         status = S.STATUS_OK
         try:
-            for n in self._slices(self.n_steps, "step"):
-                d, s, status = runner(*table, self.dt, done, n, self.save_every,
-                                      done + n == self.n_steps, state, ctl,
-                                      self.q_out[1 + saved:], self.m_out[1 + saved:],
-                                      self.model.callback, self.dref, self.dmax)
-                done += d
-                saved += s
-                if status != S.STATUS_OK:
-                    break
+            if self.n_steps <= FIRST_SLICE and not self.progress:  # a short run: one call
+                done, saved, status = runner(*table, self.dt, 0.0, self.n_steps,
+                                             self.save_every, True, state, ctl, self.q_out[1:],
+                                             self.m_out[1:], addr, self.dref, self.dmax)
+            else:
+                for n in self._slices(self.n_steps, "step"):
+                    d, s, status = runner(*table, self.dt, float(done), n, self.save_every,
+                                          done + n == self.n_steps, state, ctl,
+                                          self.q_out[1 + saved:], self.m_out[1 + saved:],
+                                          addr, self.dref, self.dmax)
+                    done += d
+                    saved += s
+                    if status != S.STATUS_OK:
+                        break
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
@@ -502,13 +562,13 @@ class _Run:
             # non-finite state: ask the torque at the step's clock values before blaming
             # the dynamics
             if self.model.function is not None and not _torque_is_finite(
-                    self.model, state, (t0, t0 + 0.5 * dt, t0 + dt)):
-                _raise_torque_error(self.model, name, where, state, t0,
-                                    self._partial(n_keep, "failed", failed_at=t0), done)
+                    self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
+                raise_torque_error(self.model, name, where, state, t0, dt,
+                                   self._partial(n_keep, "failed", failed_at=t0), done, self.u)
             return self._failed_nonfinite(n_keep, done, (done + 1) * dt)
         traj = self._partial(n_keep, "failed", failed_at=t0)
         if status == S.STATUS_TORQUE:
-            _raise_torque_error(self.model, name, where, state, t0, traj, done)
+            raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u)
         if status == S.STATUS_NO_CONVERGENCE:
             w = float(np.max(np.abs(state[4:] / self.scene.moments)))
             raise ConvergenceError(
@@ -516,7 +576,7 @@ class _Run:
                 f"h |omega| = {dt * w:.3g} there; the physical root exists up to about 1: "
                 f"reduce dt below about {0.7 / w:.3g}", traj, done, t0)
         if status == S.STATUS_KICK_NO_CONVERGENCE:
-            stiff = _torque_stiffness(self.model, state, t0)
+            stiff = torque_stiffness(self.model, state, t0, self.u)
             raise ConvergenceError(
                 f"{name}: the implicit kick of the momentum-dependent torque did not "
                 f"converge {where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; "
@@ -543,6 +603,8 @@ def _invariant_problems(traj: Trajectory) -> list[str]:
     """The invariants of ``traj`` that left their tolerance between its first and last
     sample, in words (empty for a healthy run). For an ensemble, per body: the words say
     how many bodies and give one (failed bodies are left out: they warned already)."""
+    if traj.q.ndim == 2:
+        return _one_body_problems(traj)
     method, scene = traj.method, traj.scene
     caps = scene.capabilities
     ens = traj.q.ndim == 3
@@ -586,12 +648,48 @@ def _invariant_problems(traj: Trajectory) -> list[str]:
     return out
 
 
-def _torque_is_finite(model, state, times) -> bool:
+def _one_body_problems(traj: Trajectory) -> list[str]:
+    """:func:`_invariant_problems` for one body, in scalar arithmetic (a few
+    microseconds: this check runs at the end of every call)."""
+    method, scene = traj.method, traj.scene
+    caps = scene.capabilities
+    q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
+    L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
+    if not all(map(math.isfinite, q1 + L1)):
+        return []  # failed: warned already
+    out = []
+    qn = math.hypot(*q1)
+    if not abs(qn - 1.0) <= QNORM_TOL:
+        out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    if method.keeps_casimir and not caps.torque:
+        g0, g1 = math.hypot(*L0), math.hypot(*L1)
+        if not abs(g1 - g0) <= CASIMIR_TOL * g0:
+            out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
+                       f"relative")
+    I1, I2, I3 = scene.moments.tolist()
+    T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)
+    T1 = 0.5 * (L1[0] * L1[0] / I1 + L1[1] * L1[1] / I2 + L1[2] * L1[2] / I3)
+    if (method.symplectic or method.keeps_energy) and caps.conservative:
+        V0 = V1 = 0.0
+        if caps.torque:
+            ends = np.array([q0, q1])
+            V0, V1 = (float(v) for v in np.asarray(scene.potential(
+                ends / np.linalg.norm(ends, axis=-1)[:, None])))
+        e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
+        if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
+            out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
+                       f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
+    if caps.dissipative and method.keeps_casimir and T1 > T0 * (1.0 + 1e-9):
+        out.append(f"the energy grew from {T0:.6g} to {T1:.6g} in a dissipative scene")
+    return out
+
+
+def _torque_is_finite(model, state, times, u=None) -> bool:
     """Whether the user torque gives three finite numbers at ``state`` for every time."""
-    q, m = state[:4].copy(), state[4:].copy()
+    q, m = state[:4], state[4:]
     for t in times:
         try:
-            value = np.asarray(model.function(t, q, m), dtype=float)
+            value = np.asarray(model(t, q, m, u), dtype=float)
         except Exception:
             return False
         if value.shape != (3,) or not np.all(np.isfinite(value)):
@@ -599,44 +697,42 @@ def _torque_is_finite(model, state, times) -> bool:
     return True
 
 
-def _raise_torque_error(model, name, where, state, t0, traj, step):
-    """Call the user's torque at the last good state (at the step's clock values) to raise
-    its own error, chained."""
-    fn = model.function
-    fname = getattr(fn, "__name__", "torque")
-    q, m = state[:4].copy(), state[4:].copy()
-    dt = traj.dt
+def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None):
+    """Call the user's torque at the last good state (at the step's clock values
+    ``t0``, ``t0 + dt/2``, ``t0 + dt``) to raise its own error, chained; ``traj`` (or
+    ``None``) goes on the error."""
+    sig = model.signature
+    q, m = state[:4], state[4:]
     for t in (t0, t0 + 0.5 * dt, t0 + dt):
         try:
-            value = np.asarray(fn(t, q, m), dtype=float)
+            value = np.asarray(model(t, q, m, u), dtype=float)
         except Exception as exc:
-            raise TorqueError(f"{name}: the torque {fname}(t, q, L) raised "
-                              f"{type(exc).__name__} ({exc}) {where}", traj, step,
-                              t0) from exc
+            raise TorqueError(f"{name}: the torque {sig} raised {type(exc).__name__} "
+                              f"({exc}) {where}", traj, step, t0) from exc
         if value.shape != (3,):
-            raise TorqueError(f"{name}: the torque {fname}(t, q, L) returned shape "
-                              f"{value.shape}, not 3 numbers, {where}", traj, step, t0)
+            raise TorqueError(f"{name}: the torque {sig} returned shape {value.shape}, not 3 "
+                              f"numbers, {where}", traj, step, t0)
         if not np.all(np.isfinite(value)):
-            raise TorqueError(f"{name}: the torque {fname}(t, q, L) returned non-finite "
-                              f"values {value.tolist()} {where}", traj, step, t0)
-    raise TorqueError(f"{name}: the torque {fname}(t, q, L) raised or returned non-finite "
-                      f"values inside the step {where} (it is well behaved at the step's "
-                      f"start state)", traj, step, t0)
+            raise TorqueError(f"{name}: the torque {sig} returned non-finite values "
+                              f"{value.tolist()} {where}", traj, step, t0)
+    raise TorqueError(f"{name}: the torque {sig} raised or returned non-finite values inside "
+                      f"the step {where} (it is well behaved at the step's start state)",
+                      traj, step, t0)
 
 
-def _torque_stiffness(model, state, t0) -> float:
+def torque_stiffness(model, state, t0, u=None) -> float:
     """``max |dN/dL|`` of a user torque at ``state``, by central differences (a diagnosis)."""
-    fn = model.function
-    if fn is None:
+    if model.function is None:
         return math.nan
-    q, m = state[:4].copy(), state[4:].copy()
+    q, m = state[:4], state[4:]
     e = 1e-6 * max(1.0, float(np.max(np.abs(m))))
     J = np.empty((3, 3))
     try:
         for k in range(3):
             d = np.zeros(3)
             d[k] = e
-            J[:, k] = (np.asarray(fn(t0, q, m + d)) - np.asarray(fn(t0, q, m - d))) / (2 * e)
+            J[:, k] = (np.asarray(model(t0, q, m + d, u))
+                       - np.asarray(model(t0, q, m - d, u))) / (2 * e)
     except Exception:
         return math.nan
     return float(np.max(np.abs(J)))

@@ -20,6 +20,7 @@ Example: a fixed-ordering Strang splitting, integrable at once by
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -28,6 +29,11 @@ import numpy as np
 from liebody import _plan as P
 from liebody._kernels import stages as S
 from liebody.scenes import DEPENDENCIES, Capabilities
+
+#: one-body plans kept (least recently used dropped first)
+PLAN_CACHE_SIZE = 128
+#: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
+_PLANS: OrderedDict = OrderedDict()
 
 __all__ = ["COMPOSITIONS", "Handles", "Method", "MethodTable", "get", "methods", "register"]
 
@@ -139,8 +145,22 @@ class Method:
 
     def plan(self, scene, m0, h: float) -> P.Plan:
         """The method's stage table for one body: ``scene``, initial momentum ``m0`` ``(3,)``
-        and step ``h`` (``params`` has a body axis of length 1)."""
-        (_, plan), = self.plans(scene, np.asarray(m0, dtype=float).reshape(1, 3), h)
+        and step ``h`` (``params`` has a body axis of length 1).
+
+        Plans are cached per (method, scene object, ``h``, ``m0``), so repeated calls
+        with one scene skip the set-up; a cached plan is shared: never write to its
+        arrays (copy ``params`` first, as the drivers' callers do for the controls).
+        """
+        m0 = np.asarray(m0, dtype=float).reshape(3)
+        key = (self.name, id(scene), float(h), m0.tobytes())
+        entry = _PLANS.get(key)
+        if entry is not None and entry[0] is self and entry[1] is scene:
+            _PLANS.move_to_end(key)
+            return entry[2]
+        (_, plan), = self.plans(scene, m0.reshape(1, 3), h)
+        _PLANS[key] = (self, scene, plan)  # the scene is kept: its id stays unique
+        if len(_PLANS) > PLAN_CACHE_SIZE:
+            _PLANS.popitem(last=False)
         return plan
 
     def plans(self, scene, m0, h: float) -> list[tuple[np.ndarray, P.Plan]]:

@@ -166,13 +166,18 @@ class Stage:
             raise ValueError(f"stage axis must be 0, 1 or 2, got {self.axis!r}")
 
     def rows(self, n: int) -> np.ndarray:
-        """The parameter rows ``(n, N_PARAMS)`` (the named slots of ``stages``)."""
-        p = np.zeros((n, S.N_PARAMS))
-        p[:, [S.P_I1, S.P_I2, S.P_I3]] = np.broadcast_to(self.moments, (n, 3))
-        p[:, S.P_RATE] = np.broadcast_to(self.rate, (n,))
-        p[:, S.P_TORQUE] = float(self.torque)
-        p[:, [S.P_C1, S.P_C2, S.P_C3]] = np.broadcast_to(self.c, (n, 3))
-        p[:, S.P_EPS] = np.broadcast_to(self.eps, (n,))
+        """The parameter rows ``(n, N_PARAMS)`` (the named slots of ``stages``); computed
+        once per ``n`` (a stage is immutable), so do not write to them."""
+        cache = self.__dict__.setdefault("_rows", {})
+        p = cache.get(n)
+        if p is None:
+            p = np.zeros((n, S.N_PARAMS))
+            p[:, S.P_I1:S.P_I3 + 1] = self.moments
+            p[:, S.P_RATE] = self.rate
+            p[:, S.P_TORQUE] = float(self.torque)
+            p[:, S.P_C1:S.P_C3 + 1] = self.c
+            p[:, S.P_EPS] = self.eps
+            cache[n] = p
         return p
 
     def scaled(self, g: float) -> Stage:

@@ -118,7 +118,9 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
             f"{name} must have shape (..., {last_dim}) (last axis of length {last_dim}), "
             f"got {arr.shape}"
         )
-    if not allow_nonfinite and not np.all(np.isfinite(arr)):
+    if not allow_nonfinite and not (
+            all(map(math.isfinite, arr.tolist())) if arr.ndim == 1 and arr.size <= 16
+            else bool(np.isfinite(arr).all())):
         raise ValueError(f"{name} must be finite (no NaN or inf), {_first_nonfinite(arr)}")
     return arr
 
@@ -131,6 +133,15 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
     returned renormalised to round-off.
     """
     q = as_float_array(name, value, last_dim=4)
+    if q.ndim == 1:  # one quaternion: scalar arithmetic (the fixed cost of every call)
+        w, x, y, z = q.tolist()
+        n = math.sqrt(w * w + x * x + y * y + z * z)
+        if not abs(n - 1.0) <= tol:
+            raise ValueError(
+                f"{name} must be a unit quaternion (w, x, y, z), scalar first: "
+                f"| |q| - 1 | = {abs(n - 1.0):.3e} exceeds the tolerance {tol:.1e}. "
+                f"Normalise it first, e.g. with liebody.quaternion.normalize(q).")
+        return q / n
     norm = np.linalg.norm(q, axis=-1)
     bad = np.abs(norm - 1.0) > tol
     if np.any(bad):
@@ -145,6 +156,8 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
 
 def as_positive_float(name: str, value, *, allow_zero: bool = False) -> float:
     """A finite real scalar that is > 0 (or >= 0 with ``allow_zero``)."""
+    if type(value) is float and 0.0 < value < math.inf:  # the common case, at once
+        return value
     if isinstance(value, bool) or not isinstance(value, numbers.Real | np.floating | np.integer):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
     try:
@@ -164,6 +177,8 @@ def as_positive_float(name: str, value, *, allow_zero: bool = False) -> float:
 def as_positive_int(name: str, value) -> int:
     """A positive integer up to :data:`INT64_MAX` (bools and non-integral floats are
     rejected; counts are 64-bit integers in the kernels)."""
+    if type(value) is int and 0 < value <= INT64_MAX:  # the common case, at once
+        return value
     if isinstance(value, bool | np.bool_):
         raise TypeError(f"{name} must be a positive integer, got a bool")
     if isinstance(value, numbers.Integral):

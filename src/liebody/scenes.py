@@ -20,10 +20,12 @@ Everything :func:`liebody.integrate` accepts is a :class:`Scene`. A scene provid
   (none, uniform gravity, or a user's numba function through
   :meth:`TorqueModel.user`);
 * ``dissipation`` — the strength ``eps`` of the double-bracket dissipation (0: none);
+* ``controls`` — the number of control inputs ``u`` the torque takes (0: none;
+  :class:`ControlledBody`);
 * ``free_flow`` — the drift of the splittings for an asymmetric body (``"auto"``,
   ``"axes"`` or ``"exact"``) and ``default_method``.
 
-The four scenes below implement it. The easy way to a new scene is a subclass of
+The scenes below implement it. The easy way to a new scene is a subclass of
 one of them (a gravity-gradient satellite is a :class:`TorqueBody` whose torque
 function is built in ``__init__``; a top with a different mass distribution is a
 :class:`HeavyTop`); a direct subclass of :class:`Scene` implements the members above.
@@ -40,8 +42,8 @@ from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_NONE, TORQUE_USER
 from liebody._validate import as_float_array, as_positive_float
 from liebody.rigid_body import RigidBody
 
-__all__ = ["Capabilities", "DampedBody", "FreeBody", "HeavyTop", "Scene", "TorqueBody",
-           "TorqueModel"]
+__all__ = ["Capabilities", "ControlledBody", "DampedBody", "FreeBody", "HeavyTop", "Scene",
+           "TorqueBody", "TorqueModel"]
 
 #: what a torque may depend on
 DEPENDENCIES = ("time", "orientation", "momentum")
@@ -103,17 +105,18 @@ class TorqueModel:
     """How the kernels evaluate a scene's torque (part of the scene contract).
 
     ``code`` is one of the kernel torque codes (none, uniform gravity, user
-    callback), ``constants`` the gravity constants ``M g cm`` (body frame), and
-    ``callback`` the compiled C callback of a user torque (``function`` the user's own
-    ``@njit`` function, which the Python side calls to check it and to report its
-    errors). Build one with
+    callback), ``constants`` the gravity constants ``M g cm`` (body frame), and for a
+    user torque ``address`` the address of its compiled C callback and ``function`` the
+    user's own ``@njit`` function (which the Python side calls to check it and to
+    report its errors), taking ``controls`` control inputs. Build one with
     :meth:`none`, :meth:`gravity` or :meth:`user`.
     """
 
     code: int = TORQUE_NONE
     constants: object = (0.0, 0.0, 0.0)  # (3,), or (N, 3) for a batch of bodies
-    callback: object = None
+    address: int = 0
     function: object = None
+    controls: int = 0
 
     @classmethod
     def none(cls) -> TorqueModel:
@@ -126,9 +129,26 @@ class TorqueModel:
         return cls(TORQUE_GRAVITY, np.array(weight_arm, dtype=float))
 
     @classmethod
-    def user(cls, torque) -> TorqueModel:
-        """A numba ``@njit`` function ``torque(t, q, L) -> (3,)`` (compiled once per process)."""
-        return cls(TORQUE_USER, callback=_callback(torque), function=torque)
+    def user(cls, torque, controls: int = 0) -> TorqueModel:
+        """A numba ``@njit`` function ``torque(t, q, L) -> (3,)``, or with ``controls = k``
+        control inputs ``torque(t, q, L, u) -> (3,)`` (compiled once per process)."""
+        return cls(TORQUE_USER, address=_callback(torque, controls), function=torque,
+                   controls=controls)
+
+    def __call__(self, t: float, q: np.ndarray, L: np.ndarray, u=None) -> np.ndarray:
+        """The user torque at one state, called from Python (``u``: the controls, zero
+        when not given); raises what the torque raises."""
+        if self.controls:
+            u = np.zeros(self.controls) if u is None else np.array(u[:self.controls],
+                                                                   dtype=float)
+            return self.function(t, q.copy(), L.copy(), u)
+        return self.function(t, q.copy(), L.copy())
+
+    @property
+    def signature(self) -> str:
+        """How the torque is called, e.g. ``"spin(t, q, L, u)"``, for messages."""
+        name = getattr(self.function, "__name__", "torque")
+        return f"{name}(t, q, L{', u' if self.controls else ''})"
 
 
 class Scene:
@@ -140,6 +160,8 @@ class Scene:
     #: parameters that may be given per body, with the rank of one body's value
     #: (0: a number, 1: a vector); :meth:`take` slices them
     per_body: ClassVar[dict[str, int]] = {}
+    #: number of control inputs ``u`` the torque takes (:class:`ControlledBody`)
+    controls: int = 0
 
     def take(self, idx) -> Scene:
         """The scene of bodies ``idx`` (a slice or an index array) of a batched scene;
@@ -364,16 +386,7 @@ class TorqueBody(Scene):
     def __init__(self, body: RigidBody, torque, potential=None,
                  orientation_only: bool = False, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
-        if not hasattr(torque, "py_func"):
-            raise TypeError("torque must be a numba @njit function torque(t, q, L) returning "
-                            f"the body-frame torque, got {type(torque).__name__}")
-        try:
-            tau = np.asarray(torque(0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3)),
-                             dtype=float)
-        except Exception as exc:
-            raise ValueError(f"torque(t, q, L) failed on a test call: {exc}") from exc
-        if tau.shape != (3,):
-            raise ValueError(f"torque(t, q, L) must return 3 numbers, got shape {tau.shape}")
+        _check_user_torque(torque, self.controls)
         if potential is not None and not callable(potential):
             raise TypeError("potential must be a callable potential(q) -> float or None")
         if not isinstance(orientation_only, bool):
@@ -397,7 +410,65 @@ class TorqueBody(Scene):
         return vals.reshape(q.shape[:-1])
 
     def torque_model(self) -> TorqueModel:
-        return TorqueModel.user(self.torque)
+        return TorqueModel.user(self.torque, self.controls)
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class ControlledBody(TorqueBody):
+    """A rigid body under a torque ``torque(t, q, L, u)`` of the state and control inputs.
+
+    The control inputs ``u`` (``controls`` float64 numbers) are what a digital controller
+    sets: :class:`liebody.Stepper` takes them between steps (``stepper.u = ...``) and
+    :func:`liebody.integrate` for a whole run (``controls=``). They are held constant
+    over each step (a zero-order hold): within a step the torque may still depend on
+    ``t``, ``q`` and ``L`` (a magnetorquer's ``m x B(t, q)``, say), but ``u`` is the
+    value set before the step.
+
+    Parameters
+    ----------
+    body
+        The body.
+    torque
+        A numba ``@njit`` function ``torque(t, q, L, u)`` of the time, the orientation
+        (scalar-first unit quaternion, ``(4,)``), the body angular momentum ``(3,)``
+        and the control inputs ``(controls,)``, returning the body-frame torque (3
+        numbers). A reaction-wheel or thruster torque commanded directly is
+        ``return u.copy()`` (with ``controls=3``).
+    controls
+        Number of control inputs, 1 to 6.
+    potential, orientation_only, free_flow
+        As for :class:`TorqueBody`. ``orientation_only=True`` promises that the torque
+        does not depend on ``L`` (``u`` and ``t`` are allowed): kicks are then explicit
+        and exact.
+
+    Examples
+    --------
+    A spacecraft commanded by three body-axis torques:
+
+    >>> import numpy as np
+    >>> from numba import njit
+    >>> import liebody as lb
+    >>> @njit
+    ... def commanded(t, q, L, u):
+    ...     return u.copy()
+    >>> craft = lb.ControlledBody(lb.RigidBody([1200.0, 1100.0, 800.0]), commanded,
+    ...                           controls=3, orientation_only=True)
+    """
+
+    controls: int
+
+    def __init__(self, body: RigidBody, torque, controls: int, potential=None,
+                 orientation_only: bool = False, free_flow: str = "auto") -> None:
+        from liebody._kernels.stages import N_CONTROLS
+
+        if isinstance(controls, bool) or not isinstance(controls, int | np.integer):
+            raise TypeError(f"controls must be an integer (the number of control inputs), "
+                            f"got {type(controls).__name__}")
+        if not 1 <= controls <= N_CONTROLS:
+            raise ValueError(f"controls must be 1 to {N_CONTROLS}, got {controls}")
+        object.__setattr__(self, "controls", int(controls))
+        super().__init__(body, torque, potential=potential,
+                         orientation_only=orientation_only, free_flow=free_flow)
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -460,6 +531,25 @@ class DampedBody(Scene):
         return self.eps
 
 
+def _check_user_torque(torque, controls: int) -> None:
+    """A user torque is an ``@njit`` function giving 3 numbers on a test call."""
+    args = "t, q, L, u" if controls else "t, q, L"
+    from numba.core.config import DISABLE_JIT  # @njit gives plain functions then
+
+    if not (hasattr(torque, "py_func") or (DISABLE_JIT and callable(torque))):
+        raise TypeError(f"torque must be a numba @njit function torque({args}) returning "
+                        f"the body-frame torque, got {type(torque).__name__}")
+    test = (0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
+    if controls:
+        test += (np.zeros(controls),)
+    try:
+        tau = np.asarray(torque(*test), dtype=float)
+    except Exception as exc:
+        raise ValueError(f"torque({args}) failed on a test call: {exc}") from exc
+    if tau.shape != (3,):
+        raise ValueError(f"torque({args}) must return 3 numbers, got shape {tau.shape}")
+
+
 def _positive(name: str, value):
     """A positive finite number, or an array of them (one per body)."""
     if np.ndim(value) == 0:
@@ -485,13 +575,13 @@ def _per_body(param: np.ndarray, values: np.ndarray) -> np.ndarray:
 _CALLBACKS: dict = {}
 
 
-def _callback(torque):
-    """One C callback per user torque function, compiled once per process."""
-    key = id(torque)
+def _callback(torque, controls: int = 0) -> int:
+    """The address of the C callback of a user torque, compiled once per process."""
+    key = (id(torque), controls)
     entry = _CALLBACKS.get(key)
     if entry is None or entry[0] is not torque:
         from liebody._kernels.torque import adapt_user_torque
 
-        entry = (torque, adapt_user_torque(torque))
+        entry = (torque, adapt_user_torque(torque, controls))
         _CALLBACKS[key] = entry
     return entry[1]

@@ -116,6 +116,7 @@ def test_runs_whose_samples_do_not_fit_are_refused_up_front():
 
 def test_the_suggested_save_every_fits(monkeypatch):
     monkeypatch.setattr(_integrate, "_available_memory", lambda: 10**6)  # 1 MB
+    monkeypatch.setattr(_integrate, "SMALL_RUN_BYTES", 0)  # check every run
     with pytest.raises(ValueError, match=r"save_every = [\d,]+ keeps") as info:
         liebody.integrate(_free(), L0=[0.3, 1.0, 0.2], dt=1e-3, steps=100_000)
     every = int(re.search(r"; save_every = ([\d,]+) keeps", str(info.value))

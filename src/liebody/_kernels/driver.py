@@ -70,15 +70,11 @@ from liebody._kernels.stages import (
     KICK_IMPLICIT,
     LIE_EULER,
     MEMBERS,
-    P_C1,
-    P_C2,
-    P_C3,
     P_EPS,
     P_I1,
     P_I2,
     P_I3,
     P_RATE,
-    P_TORQUE,
     RK4,
     RKMK4,
     SPHERE,
@@ -103,14 +99,14 @@ KICK_NEWTON = 30
 
 
 @jit
-def _torque(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn):
+def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
-    n1, n2, n3 = torque_value(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr)
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
 
 
 @jit
-def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """KICK (exact flow of an orientation-only torque) or KICK_IMPLICIT.
 
     The implicit kick solves ``k = m + tau N(t, q, k)``: the adjoint of the explicit one,
@@ -119,9 +115,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     ``tau |dN/dm| < 1``), then Newton with a finite-difference Jacobian (stiff torques
     such as strong damping), each to round-off.
     """
-    tk = int(p[P_TORQUE])
-    c1, c2, c3 = p[P_C1], p[P_C2], p[P_C3]
-    n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, m1, m2, m3, torque_fn)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     e1, e2, e3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3  # the explicit kick
@@ -130,7 +124,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     k1, k2, k3 = e1, e2, e3
     scale = abs(m1) + abs(m2) + abs(m3)
     for _ in range(KICK_FIXED_POINT):
-        n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3, torque_fn)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
@@ -143,7 +137,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     # Newton on G(k) = k - m - tau N(k), from the explicit kick
     k1, k2, k3 = e1, e2, e3
     for _ in range(KICK_NEWTON):
-        n1, n2, n3, ok = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3, torque_fn)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         g1, g2, g3 = k1 - m1 - tau * n1, k2 - m2 - tau * n2, k3 - m3 - tau * n3
@@ -152,9 +146,9 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
             return w, x, y, z, k1, k2, k3, STATUS_OK
         # J = 1 - tau dN/dk, by forward differences
         e = 1.5e-8 * size
-        a1, a2, a3, ok1 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1 + e, k2, k3, torque_fn)
-        b1, b2, b3, ok2 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2 + e, k3, torque_fn)
-        d1, d2, d3, ok3 = _torque(tk, c1, c2, c3, t, w, x, y, z, k1, k2, k3 + e, torque_fn)
+        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr)
+        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr)
+        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr)
         if not (ok1 and ok2 and ok3):
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         f = tau / e
@@ -197,37 +191,32 @@ def _damp(p, tau, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """The splittings' stages other than rotations: kicks and dissipation."""
     if kind == KICK or kind == KICK_IMPLICIT:
-        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     if kind == DAMP:
         return _damp(p, tau, w, x, y, z, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
 @jit(inline="always")
-def _baseline(family, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+def _baseline(family, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """One whole step of a classical method (EULER, RK4, LIE_EULER, RKMK4), chosen by its
     family code: a constant in the baselines' own drivers (one method compiled each)."""
-    I1, I2, I3, eps = p[P_I1], p[P_I2], p[P_I3], p[P_EPS]
-    tk, c1, c2, c3 = int(p[P_TORQUE]), p[P_C1], p[P_C2], p[P_C3]
     if family == F_EULER:
-        r = euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                       torque_fn)
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     elif family == F_RK4:
-        r = rk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau, torque_fn)
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     elif family == F_LIE_EULER:
-        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                           torque_fn)
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     else:
-        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, I1, I2, I3, tk, c1, c2, c3, eps, tau,
-                       torque_fn)
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 @jit
-def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """Any stage kind (the generic family, for plans that mix kinds of several families)."""
     if kind == AXIS:
         r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
@@ -240,21 +229,21 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EULER:
-        return _baseline(F_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _baseline(F_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     elif kind == RK4:
-        return _baseline(F_RK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _baseline(F_RK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     elif kind == LIE_EULER:
-        return _baseline(F_LIE_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _baseline(F_LIE_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     elif kind == RKMK4:
-        return _baseline(F_RKMK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _baseline(F_RKMK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     else:
-        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 # ------------------------------------------------------------------ families
 @jit(inline="always")
-def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, torque_fn):
+def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """Stage ``j`` of the table for time ``tau`` at clock ``t``: state and status.
 
     ``family`` is a compile-time constant in every driver, and numba removes the
@@ -267,7 +256,7 @@ def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, t
     elif family == F_ROTATIONS or family == F_SPLITTING:
         if family == F_SPLITTING:
             if kind == KICK or kind == KICK_IMPLICIT:
-                return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+                return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
             if kind == DAMP:
                 return _damp(params[j], tau, w, x, y, z, m1, m2, m3)
         if kind == AXIS:
@@ -279,22 +268,22 @@ def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, t
     elif family == F_DMV:
         if kind == DMV:
             return _dmv(params[j], tau, w, x, y, z, m1, m2, m3)
-        return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     elif family == F_EXACT:
         if kind == EXACT:
             return _exact(params[j], tau, w, x, y, z, m1, m2, m3)
-        return _kick_or_damp(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _kick_or_damp(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     elif family == F_GENERAL:
-        return _any_stage(kind, axis, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _any_stage(kind, axis, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     else:  # the baselines: one whole step each, torque and dissipation inside
-        return _baseline(family, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_fn)
+        return _baseline(family, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 # ------------------------------------------------------------------ the loop
 @jit(inline="always")
 def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps,
-          save_every, final, state, ctl, q_out, m_out, torque_fn, dref, dmax):
+          save_every, final, state, ctl, q_out, m_out, torque_addr, dref, dmax):
     """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
     ``family`` (a ``stages.F_*`` code) is a compile-time constant. The run may be cut
@@ -305,7 +294,7 @@ def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
     step was already applied, merged into the last stage of this one (``ctl[1]``, start
     with 0). Every ``save_every``-th step of the run, and the last step of the last slice
     (``final``), is written to consecutive rows of ``q_out`` / ``m_out``. ``state`` is
-    updated in place. ``torque_fn`` is the user torque callback
+    updated in place. ``torque_addr`` is the user torque callback
     (``torque.TORQUE_SIG``) or ``None``.
 
     Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed implicit
@@ -341,7 +330,7 @@ def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
         for j in range(j0, last):
             w, x, y, z, m1, m2, m3, status = apply_stage(
                 family, kinds[j], axes[j], params, j, t, coefs[j] * h, w, x, y, z, m1, m2, m3,
-                torque_fn)
+                torque_addr)
             if status != STATUS_OK:
                 break
             t += clock[j] * h
@@ -356,7 +345,7 @@ def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
                 pending = False
             w, x, y, z, m1, m2, m3, status = apply_stage(
                 family, kinds[last], axes[last], params, last, t, tau, w, x, y, z, m1, m2, m3,
-                torque_fn)
+                torque_addr)
         if status == STATUS_OK:
             acc = w + x + y + z + m1 + m2 + m3
             if not (abs(acc) < 1e308):
@@ -404,9 +393,9 @@ def _runner(family: int, diag: bool = False):
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every, final,
-            state, ctl, q_out, m_out, torque_fn, dref, dmax):
+            state, ctl, q_out, m_out, torque_addr, dref, dmax):
         return _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
-                     n_steps, save_every, final, state, ctl, q_out, m_out, torque_fn, dref,
+                     n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, dref,
                      dmax)
 
     return run
@@ -425,13 +414,13 @@ def _batch_runner(family: int, diag: bool = False):
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_fn, dref, dmax):
+            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
             d, s, st = _loop(family, diag, kinds, axes, coefs, clock, params[i], merge_ends,
                              h, step0, n_steps, save_every, final, state[i], ctl[i],
-                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_fn, dref[i],
+                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_addr, dref[i],
                              dmax[i])
             done[i] += d
             saved[i] += s

@@ -18,6 +18,9 @@ meaning for every kind (a kind reads the columns it needs and ignores the others
 ``P_TORQUE``                torque model code (``TORQUE_*`` below)
 ``P_C1, P_C2, P_C3``        torque constants (uniform gravity: ``M g cm``)
 ``P_EPS``                   dissipation strength ``eps``
+``P_U0 .. P_U0 + 5``        control inputs ``u`` passed to a user torque, held
+                            constant over each step (zero-order hold); a
+                            :class:`liebody.Stepper` sets them between steps
 =========================  =================================================
 
 Adding a stage kind: give it a code and a :class:`Kind` entry in :data:`KINDS`, add
@@ -51,8 +54,11 @@ P_RATE = 3
 P_TORQUE = 4
 P_C1, P_C2, P_C3 = 5, 6, 7
 P_EPS = 8
+P_U0 = 9
+#: the most control inputs a user torque takes
+N_CONTROLS = 6
 #: width of a parameter row
-N_PARAMS = 9
+N_PARAMS = P_U0 + N_CONTROLS
 
 # --------------------------------------------------------------------------- torque codes
 TORQUE_NONE = 0
@@ -79,26 +85,28 @@ class Kind(NamedTuple):
 
 _MOMENTS = ("I1", "I2", "I3")
 _TORQUE = ("torque", "c1", "c2", "c3")
+_CONTROLS = tuple(f"u{i}" for i in range(N_CONTROLS))
 
 #: every stage kind, by code
 KINDS: dict[int, Kind] = {
     AXIS: Kind("axis", ("rate",), True, True),
     AXIS_RECURRING: Kind("axis (recurring)", ("rate",), True, True),
     SPHERE: Kind("sphere", ("rate",), True, True),
-    KICK: Kind("kick", _TORQUE, True, False),
-    KICK_IMPLICIT: Kind("implicit kick", _TORQUE, False, False),
+    KICK: Kind("kick", _TORQUE + _CONTROLS, True, False),
+    KICK_IMPLICIT: Kind("implicit kick", _TORQUE + _CONTROLS, False, False),
     DAMP: Kind("damping", (*_MOMENTS, "eps"), False, False),
     DMV: Kind("dmv", _MOMENTS, False, False),
     EXACT: Kind("exact", _MOMENTS, False, False),
-    EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps"), False, False),
-    RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps"), False, False),
-    LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps"), False, False),
-    RKMK4: Kind("rkmk4", (*_MOMENTS, *_TORQUE, "eps"), False, False),
+    EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
+    RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
+    LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
+    RKMK4: Kind("rkmk4", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
 }
 
 #: parameter name -> slot
 SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
-                         "torque": P_TORQUE, "c1": P_C1, "c2": P_C2, "c3": P_C3, "eps": P_EPS}
+                         "torque": P_TORQUE, "c1": P_C1, "c2": P_C2, "c3": P_C3, "eps": P_EPS,
+                         **{f"u{i}": P_U0 + i for i in range(N_CONTROLS)}}
 
 # ------------------------------------------------------------------------------ families
 # The driver is compiled once per family, for the stage kinds of that family only, so a
