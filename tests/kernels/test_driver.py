@@ -32,7 +32,10 @@ def test_unknown_stage_kind_is_an_error():
 @pytest.mark.parametrize(("kinds", "family"), [
     ([S.AXIS], S.F_AXES),
     ([S.AXIS, S.SPHERE], S.F_ROTATIONS),
-    ([S.KICK, S.AXIS_RECURRING, S.SPHERE], S.F_SPLITTING),
+    ([S.KICK, S.AXIS_RECURRING, S.SPHERE], S.F_KICKED),
+    ([S.KICK, S.AXIS, S.KICK_IMPLICIT], S.F_SPLITTING),
+    ([S.DAMP, S.AXIS], S.F_SPLITTING),
+    ([S.DMV], S.F_DMV_FREE),
     ([S.KICK, S.DMV, S.KICK_IMPLICIT], S.F_DMV),
     ([S.DAMP, S.EXACT], S.F_EXACT),
     ([S.RK4], S.F_RK4),
@@ -43,14 +46,18 @@ def test_plans_run_in_the_smallest_family(kinds, family):
 
 
 def test_methods_compile_only_their_family(hlw):
-    """A free-body splitting runs in the axis-only family; torqued ones add kicks only."""
+    """A free-body splitting runs in the axis-only family, a free body's RATTLE in DMV's
+    alone; torqued ones add kicks only, explicit ones for an orientation-only torque."""
     scene, L0 = hlw
     fam = {m.name: m.plan(scene, L0, 0.01).family for m in liebody.methods()}
     assert fam["splitting2"] == fam["no_squish"] == S.F_AXES
-    assert fam["sr2"] == S.F_ROTATIONS and fam["rattle"] == fam["dmv6"] == S.F_DMV
+    assert fam["sr2"] == S.F_ROTATIONS and fam["rattle"] == fam["dmv6"] == S.F_DMV_FREE
     assert fam["rk4"] == S.F_RK4 and fam["exact"] == S.F_EXACT
     top = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0, [0, 0, 1.0], g=1.0)
-    assert liebody.methods()["splitting4"].plan(top, L0, 0.01).family == S.F_SPLITTING
+    assert liebody.methods()["splitting4"].plan(top, L0, 0.01).family == S.F_KICKED
+    assert liebody.methods()["rattle"].plan(top, L0, 0.01).family == S.F_DMV
+    damped = liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 3.0]), eps=0.1)
+    assert liebody.methods()["splitting2"].plan(damped, L0, 0.01).family == S.F_SPLITTING
 
 
 @pytest.mark.kernel

@@ -18,14 +18,13 @@ one loop runs them all. When the first and last stages are flows of the same
 Hamiltonian (``merge_ends``), the last stage of one step and the first stage of the
 next are applied as one (first-same-as-last), except where the state is saved.
 
-Families. The loop is written once (:func:`_loop`) and compiled once per *family*
+Families. The loop is written once (in :func:`_runner`) and compiled once per *family*
 (``stages.F_*``), for that family's stage kinds only: :data:`RUNNERS` maps each family
-to its driver, in which the family code is a compile-time constant that selects the
-family's stage function. A free-body splitting therefore compiles two rotation kernels,
-not the elliptic exact flow, DMV's Newton solver and the baselines. A kind outside the
-family stops the run with ``STATUS_BAD_STAGE`` (the Python side never builds such a
-plan). (The constant reaches the loop as a closure variable: numba's ``literally``
-would do the same but measurably slows the compiled loop.)
+to its driver, a closure over the family's code. A free-body
+splitting therefore compiles one rotation kernel, not the elliptic exact flow, DMV's
+Newton solver and the baselines, and a free body's RATTLE compiles no kick. A kind
+outside the family stops the run with ``STATUS_BAD_STAGE`` (the Python side never
+builds such a plan).
 
 The state lives in seven local scalars inside the loop: nothing is allocated per
 step. The loop stops at the first non-finite state or failed implicit solve and
@@ -57,9 +56,10 @@ from liebody._kernels.stages import (
     EXACT,
     F_AXES,
     F_DMV,
+    F_DMV_FREE,
     F_EULER,
     F_EXACT,
-    F_GENERAL,
+    F_KICKED,
     F_LIE_EULER,
     F_RK4,
     F_RKMK4,
@@ -92,10 +92,9 @@ KICK_FIXED_POINT = 50
 KICK_NEWTON = 30
 
 
-# ------------------------------------------------------------------ stage groups
+# ------------------------------------------------------------------ stage kernels
 # Kernels for the stage kinds that need more than one call; each returns the state and
-# a status. They are ordinary (not inlined) kernels: the family functions below are
-# inlined into the loop, and numba inlines one level only.
+# a status.
 
 
 @jit
@@ -103,6 +102,15 @@ def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr)
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
+
+
+@jit
+def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
+    """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)``."""
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr)
+    if not ok:
+        return w, x, y, z, m1, m2, m3, STATUS_TORQUE
+    return w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3, STATUS_OK
 
 
 @jit
@@ -200,21 +208,6 @@ def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
-@jit(inline="always")
-def _baseline(family, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
-    """One whole step of a classical method (EULER, RK4, LIE_EULER, RKMK4), chosen by its
-    family code: a constant in the baselines' own drivers (one method compiled each)."""
-    if family == F_EULER:
-        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
-    elif family == F_RK4:
-        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
-    elif family == F_LIE_EULER:
-        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
-    else:
-        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
-    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-
-
 @jit
 def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     """Any stage kind (the generic family, for plans that mix kinds of several families)."""
@@ -229,149 +222,22 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EULER:
-        return _baseline(F_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     elif kind == RK4:
-        return _baseline(F_RK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     elif kind == LIE_EULER:
-        return _baseline(F_LIE_EULER, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     elif kind == RKMK4:
-        return _baseline(F_RKMK4, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
     else:
         return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
-# ------------------------------------------------------------------ families
-@jit(inline="always")
-def apply_stage(family, kind, axis, params, j, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
-    """Stage ``j`` of the table for time ``tau`` at clock ``t``: state and status.
-
-    ``family`` is a compile-time constant in every driver, and numba removes the
-    branches of the other families before typing them: each family compiles the
-    kernels of its own stage kinds only. The loop has checked every kind against the
-    family (``stages.MEMBERS``), so each family's last branch needs no test.
-    """
-    if family == F_AXES:
-        r = axis_flow(w, x, y, z, m1, m2, m3, axis, params[j, P_RATE], tau)
-    elif family == F_ROTATIONS or family == F_SPLITTING:
-        if family == F_SPLITTING:
-            if kind == KICK or kind == KICK_IMPLICIT:
-                return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
-            if kind == DAMP:
-                return _damp(params[j], tau, w, x, y, z, m1, m2, m3)
-        if kind == AXIS:
-            r = axis_flow(w, x, y, z, m1, m2, m3, axis, params[j, P_RATE], tau)
-        elif kind == AXIS_RECURRING:
-            r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, params[j, P_RATE], tau)
-        else:
-            r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, P_RATE], tau)
-    elif family == F_DMV:
-        if kind == DMV:
-            return _dmv(params[j], tau, w, x, y, z, m1, m2, m3)
-        return _kick(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
-    elif family == F_EXACT:
-        if kind == EXACT:
-            return _exact(params[j], tau, w, x, y, z, m1, m2, m3)
-        return _kick_or_damp(kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
-    elif family == F_GENERAL:
-        return _any_stage(kind, axis, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
-    else:  # the baselines: one whole step each, torque and dissipation inside
-        return _baseline(family, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
-    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
-
-
 # ------------------------------------------------------------------ the loop
-@jit(inline="always")
-def _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps,
-          save_every, final, state, ctl, q_out, m_out, torque_addr, dref, dmax):
-    """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
-
-    ``family`` (a ``stages.F_*`` code) is a compile-time constant. The run may be cut
-    into slices (calls) of any length without changing a bit of the result: the clock
-    is ``t = (step0 + step) h`` with ``step0`` the steps done before this call, and
-    ``ctl`` (int64, in place) carries across calls the steps left until the next save
-    (``ctl[0]``, start a run with ``save_every``) and whether the first stage of the next
-    step was already applied, merged into the last stage of this one (``ctl[1]``, start
-    with 0). Every ``save_every``-th step of the run, and the last step of the last slice
-    (``final``), is written to consecutive rows of ``q_out`` / ``m_out``. ``state`` is
-    updated in place. ``torque_addr`` is the user torque callback
-    (``torque.TORQUE_SIG``) or ``None``.
-
-    Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed implicit
-    solve or a torque that fails, the loop stops and ``state`` holds the last good
-    state, the one after ``steps_done`` steps (for methods with merged end stages it
-    may already contain the first stage of the failed step).
-
-    Running diagnostics (``diag``, a compile-time constant): after every step, ``dmax``
-    (in place) keeps the largest relative energy error ``|E - E0| / scale``, ``| |q| - 1 |``
-    and relative ``| |L| - |L0| |`` seen, with ``dref`` = ``(1/I1, 1/I2, 1/I3, c1, c2, c3,
-    E0, 1/scale, |L0|, 1/|L0|)`` (``c = M g cm``: the energy includes the potential of
-    uniform gravity). Run with ``merge_ends`` false, so that every step ends on a full
-    step's state.
-    """
-    ns = kinds.shape[0]
-    for j in range(ns):  # every kind must be one the family runs
-        if kinds[j] < 0 or kinds[j] >= MEMBERS.shape[1] or not MEMBERS[family, kinds[j]]:
-            return 0, 0, STATUS_BAD_STAGE
-    w, x, y, z = state[0], state[1], state[2], state[3]
-    m1, m2, m3 = state[4], state[5], state[6]
-    last = ns - 1
-    until_save = ctl[0]  # countdown: no integer division in the loop
-    pending = ctl[1] != 0  # first stage of this step already applied
-    n_saved = 0
-    for step in range(n_steps):
-        gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
-        status = STATUS_OK
-        t = (step0 + step) * h  # clock at the start of the step (no accumulated rounding)
-        j0 = 0
-        if pending:
-            j0 = 1
-            t += clock[0] * h
-        for j in range(j0, last):
-            w, x, y, z, m1, m2, m3, status = apply_stage(
-                family, kinds[j], axes[j], params, j, t, coefs[j] * h, w, x, y, z, m1, m2, m3,
-                torque_addr)
-            if status != STATUS_OK:
-                break
-            t += clock[j] * h
-        until_save -= 1
-        save_now = until_save == 0 or (final and step == n_steps - 1)
-        if status == STATUS_OK:
-            if ns > 1 and merge_ends and not save_now:
-                tau = (coefs[last] + coefs[0]) * h
-                pending = True
-            else:
-                tau = coefs[last] * h
-                pending = False
-            w, x, y, z, m1, m2, m3, status = apply_stage(
-                family, kinds[last], axes[last], params, last, t, tau, w, x, y, z, m1, m2, m3,
-                torque_addr)
-        if status == STATUS_OK:
-            acc = w + x + y + z + m1 + m2 + m3
-            if not (abs(acc) < 1e308):
-                status = STATUS_NONFINITE
-        if status != STATUS_OK:
-            state[0], state[1], state[2], state[3] = gw, gx, gy, gz
-            state[4], state[5], state[6] = g1, g2, g3
-            return step, n_saved, status
-        if diag:
-            _diagnose(w, x, y, z, m1, m2, m3, dref, dmax)
-        if save_now:
-            until_save = save_every
-            q_out[n_saved, 0], q_out[n_saved, 1] = w, x
-            q_out[n_saved, 2], q_out[n_saved, 3] = y, z
-            m_out[n_saved, 0], m_out[n_saved, 1], m_out[n_saved, 2] = m1, m2, m3
-            n_saved += 1
-    state[0], state[1], state[2], state[3] = w, x, y, z
-    state[4], state[5], state[6] = m1, m2, m3
-    ctl[0] = until_save
-    ctl[1] = 1 if pending else 0
-    return n_steps, n_saved, STATUS_OK
-
-
-@jit(inline="always")
+@jit
 def _diagnose(w, x, y, z, m1, m2, m3, dref, dmax):
-    """Update the running diagnostics ``dmax`` with the state (see :func:`_loop`)."""
+    """Update the running diagnostics ``dmax`` with the state (see :func:`_runner`)."""
     n2 = w * w + x * x + y * y + z * z
     T = 0.5 * (m1 * m1 * dref[0] + m2 * m2 * dref[1] + m3 * m3 * dref[2])
     # uniform gravity: V = c . Gamma with Gamma = R(q/|q|)^T e_z = (third row of R(q)) / |q|^2
@@ -389,14 +255,153 @@ def _diagnose(w, x, y, z, m1, m2, m3, dref, dmax):
 
 
 def _runner(family: int, diag: bool = False):
-    """The driver compiled for one family (``family``, ``diag``: compile-time constants)."""
+    """The driver of one family: the loop below, for that family's stage kinds only.
+
+    ``family`` and ``diag`` are closure constants: numba removes the branches of the
+    other families before typing (so it compiles the family's stage kernels only), and
+    the diagnostics when ``diag`` is false. The closure captures plain integers only,
+    which numba's disk cache keys on. (The family dispatch sits in the loop body itself:
+    numba's IR inlining of a shared stage function tripled the compile time, and a
+    stage function per family called from the loop was not inlined by LLVM and doubled
+    the cost of a torqued step.)
+    """
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every, final,
             state, ctl, q_out, m_out, torque_addr, dref, dmax):
-        return _loop(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, step0,
-                     n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, dref,
-                     dmax)
+        """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
+
+        The run may be cut into slices (calls) of any length without changing a bit of
+        the result: the clock is ``t = (step0 + step) h`` with ``step0`` (a float) the
+        steps done before this call, and ``ctl`` (int64, in place) carries across calls
+        the steps left until the next save (``ctl[0]``, start a run with ``save_every``)
+        and whether the first stage of the next step was already applied, merged into
+        the last stage of this one (``ctl[1]``, start with 0). Every ``save_every``-th
+        step of the run, and the last step of the last slice (``final``), is written to
+        consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
+        ``torque_addr`` is the address of the user torque callback
+        (``torque.adapt_user_torque``), 0 for none.
+
+        Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed
+        implicit solve or a torque that fails, the loop stops and ``state`` holds the
+        last good state, the one after ``steps_done`` steps (for methods with merged end
+        stages it may already contain the first stage of the failed step).
+
+        Running diagnostics (``diag``, a compile-time constant): after every step,
+        ``dmax`` (in place) keeps the largest relative energy error ``|E - E0| / scale``,
+        ``| |q| - 1 |`` and relative ``| |L| - |L0| |`` seen, with ``dref`` = ``(1/I1,
+        1/I2, 1/I3, c1, c2, c3, E0, 1/scale, |L0|, 1/|L0|)`` (``c = M g cm``: the energy
+        includes the potential of uniform gravity). Run with ``merge_ends`` false, so
+        that every step ends on a full step's state.
+        """
+        ns = kinds.shape[0]
+        for j in range(ns):  # every kind must be one the family runs
+            if kinds[j] < 0 or kinds[j] >= MEMBERS.shape[1] or not MEMBERS[family, kinds[j]]:
+                return 0, 0, STATUS_BAD_STAGE
+        w, x, y, z = state[0], state[1], state[2], state[3]
+        m1, m2, m3 = state[4], state[5], state[6]
+        last = ns - 1
+        until_save = ctl[0]  # countdown: no integer division in the loop
+        pending = ctl[1] != 0  # first stage of this step already applied
+        n_saved = 0
+        for step in range(n_steps):
+            gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
+            status = STATUS_OK
+            t = (step0 + step) * h  # clock at the start of the step (no accumulated rounding)
+            j0 = 0
+            if pending:
+                j0 = 1
+                t += clock[0] * h
+            until_save -= 1
+            save_now = until_save == 0 or (final and step == n_steps - 1)
+            # the last stage also runs the next step's first one, unless the state is saved
+            merge = ns > 1 and merge_ends and not save_now
+            for j in range(j0, ns):
+                tau = coefs[j] * h
+                if j == last and merge:
+                    tau = (coefs[last] + coefs[0]) * h
+                kind = kinds[j]
+                # the stage: the branches of this driver's family only survive compilation
+                if family == F_AXES:
+                    r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, P_RATE], tau)
+                    w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
+                    if family == F_KICKED and kind == KICK:
+                        w, x, y, z, m1, m2, m3, status = _explicit_kick(
+                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                    elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
+                        w, x, y, z, m1, m2, m3, status = _kick(
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                    elif family == F_SPLITTING and kind == DAMP:
+                        w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
+                                                               m1, m2, m3)
+                    elif kind == AXIS:
+                        r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, P_RATE], tau)
+                        w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                    elif kind == AXIS_RECURRING:
+                        r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axes[j],
+                                                params[j, P_RATE], tau)
+                        w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                    else:
+                        r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, P_RATE], tau)
+                        w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                elif family == F_DMV_FREE:
+                    w, x, y, z, m1, m2, m3, status = _dmv(params[j], tau, w, x, y, z, m1, m2,
+                                                          m3)
+                elif family == F_DMV:
+                    if kind == DMV:
+                        w, x, y, z, m1, m2, m3, status = _dmv(params[j], tau, w, x, y, z, m1,
+                                                              m2, m3)
+                    else:
+                        w, x, y, z, m1, m2, m3, status = _kick(
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                elif family == F_EXACT:
+                    if kind == EXACT:
+                        w, x, y, z, m1, m2, m3, status = _exact(params[j], tau, w, x, y, z,
+                                                                m1, m2, m3)
+                    else:
+                        w, x, y, z, m1, m2, m3, status = _kick_or_damp(
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                elif family == F_EULER:
+                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                elif family == F_RK4:
+                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                elif family == F_LIE_EULER:
+                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                elif family == F_RKMK4:
+                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                else:
+                    w, x, y, z, m1, m2, m3, status = _any_stage(
+                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                if status != STATUS_OK:
+                    break
+                t += clock[j] * h
+            if status == STATUS_OK:
+                pending = merge
+                acc = w + x + y + z + m1 + m2 + m3
+                if not (abs(acc) < 1e308):
+                    status = STATUS_NONFINITE
+            if status != STATUS_OK:
+                state[0], state[1], state[2], state[3] = gw, gx, gy, gz
+                state[4], state[5], state[6] = g1, g2, g3
+                return step, n_saved, status
+            if diag:
+                _diagnose(w, x, y, z, m1, m2, m3, dref, dmax)
+            if save_now:
+                until_save = save_every
+                q_out[n_saved, 0], q_out[n_saved, 1] = w, x
+                q_out[n_saved, 2], q_out[n_saved, 3] = y, z
+                m_out[n_saved, 0], m_out[n_saved, 1], m_out[n_saved, 2] = m1, m2, m3
+                n_saved += 1
+        state[0], state[1], state[2], state[3] = w, x, y, z
+        state[4], state[5], state[6] = m1, m2, m3
+        ctl[0] = until_save
+        ctl[1] = 1 if pending else 0
+        return n_steps, n_saved, STATUS_OK
 
     return run
 
@@ -411,6 +416,7 @@ def _batch_runner(family: int, diag: bool = False):
     failures are per body, the others go on. Each body's numbers are those of the
     one-body driver, bit for bit.
     """
+    one = RUNNERS[family] if not diag else DIAG_RUNNERS[family]
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
@@ -418,10 +424,10 @@ def _batch_runner(family: int, diag: bool = False):
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
-            d, s, st = _loop(family, diag, kinds, axes, coefs, clock, params[i], merge_ends,
-                             h, step0, n_steps, save_every, final, state[i], ctl[i],
-                             q_out[i, saved[i]:], m_out[i, saved[i]:], torque_addr, dref[i],
-                             dmax[i])
+            d, s, st = one(kinds, axes, coefs, clock, params[i], merge_ends, h, step0,
+                           n_steps, save_every, final, state[i], ctl[i],
+                           q_out[i, saved[i]:], m_out[i, saved[i]:], torque_addr, dref[i],
+                           dmax[i])
             done[i] += d
             saved[i] += s
             status[i] = st
@@ -432,8 +438,8 @@ def _batch_runner(family: int, diag: bool = False):
 
 #: family code -> its driver (compiled on first call, cached on disk)
 RUNNERS = {family: _runner(family) for family in FAMILIES}
-#: family code -> its driver for many bodies
-BATCH_RUNNERS = {family: _batch_runner(family) for family in FAMILIES}
 #: the same, keeping running diagnostics
 DIAG_RUNNERS = {family: _runner(family, True) for family in FAMILIES}
+#: family code -> its driver for many bodies
+BATCH_RUNNERS = {family: _batch_runner(family) for family in FAMILIES}
 DIAG_BATCH_RUNNERS = {family: _batch_runner(family, True) for family in FAMILIES}

@@ -115,14 +115,16 @@ SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
 # its kinds; GENERAL holds every kind.
 F_AXES = 0  # axis rotations (free-body splitting2 and its compositions)
 F_ROTATIONS = 1  # every rotation (sr2, free symmetric bodies)
-F_SPLITTING = 2  # rotations, kicks and dissipation (splittings of torqued scenes)
-F_DMV = 3  # DMV and kicks (rattle, preprocessed DMV)
-F_EXACT = 4  # the exact flow, kicks and dissipation
-F_EULER = 5
-F_RK4 = 6
-F_LIE_EULER = 7
-F_RKMK4 = 8
-F_GENERAL = 9  # every kind (plans that mix kinds of several families)
+F_KICKED = 2  # rotations and explicit kicks (splittings of orientation-only torques)
+F_SPLITTING = 3  # rotations, kicks and dissipation (splittings of torqued scenes)
+F_DMV_FREE = 4  # DMV alone (rattle, preprocessed DMV on a free body)
+F_DMV = 5  # DMV and kicks (rattle on torqued scenes)
+F_EXACT = 6  # the exact flow, kicks and dissipation
+F_EULER = 7
+F_RK4 = 8
+F_LIE_EULER = 9
+F_RKMK4 = 10
+F_GENERAL = 11  # every kind (plans that mix kinds of several families)
 
 _KICKS = frozenset({KICK, KICK_IMPLICIT})
 _ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
@@ -131,7 +133,9 @@ _ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
 FAMILIES: dict[int, frozenset[int]] = {
     F_AXES: frozenset({AXIS}),
     F_ROTATIONS: _ROTATIONS,
+    F_KICKED: _ROTATIONS | {KICK},
     F_SPLITTING: _ROTATIONS | _KICKS | {DAMP},
+    F_DMV_FREE: frozenset({DMV}),
     F_DMV: _KICKS | {DMV},
     F_EXACT: _KICKS | {EXACT, DAMP},
     F_EULER: frozenset({EULER}),
