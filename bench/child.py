@@ -12,6 +12,9 @@ only the interpreter; :mod:`bench.step_cost` starts these processes with a fresh
 * ``first_call DT STEPS METHOD I1 I2 I3 L1 L2 L3`` — seconds from just before
   ``import liebody`` to the end of the first ``integrate()`` on that free body, and of
   that call alone;
+* ``first_call_spec JSON`` — seconds from just before ``import liebody`` to the end of the
+  first ``integrate()`` of the scene and method the JSON describes (a free body or a
+  heavy top, built here without the benchmark problems), and of that call alone;
 * ``first_calls STEPS DT_FREE DT_TOP METHOD ...`` — the set-up of the benchmark problems
   (the process's first numba call), then the first ``integrate()`` of each method on the
   HLW body and on the heavy top, as JSON.
@@ -55,6 +58,24 @@ def child_first_call(args: list[str]) -> str:
     return f"{time.perf_counter() - t0!r} {time.perf_counter() - t!r}"
 
 
+def child_first_call_spec(args: list[str]) -> str:
+    import json
+
+    spec = json.loads(args[0])
+    t0 = time.perf_counter()
+    import liebody
+
+    body = liebody.RigidBody(spec["moments"], check_triangle=False)
+    if spec["scene"] == "top":
+        scene = liebody.HeavyTop(body, spec["mass"], spec["cm"], g=spec["g"])
+    else:
+        scene = liebody.FreeBody(body)
+    t = time.perf_counter()
+    liebody.integrate(scene, q0=spec["q0"], L0=spec["L0"], dt=spec["dt"], steps=spec["steps"],
+                      method=spec["method"])
+    return f"{time.perf_counter() - t0!r} {time.perf_counter() - t!r}"
+
+
 def child_first_calls(args: list[str]) -> str:
     import json
     import warnings
@@ -89,7 +110,8 @@ def child_first_calls(args: list[str]) -> str:
 
 
 CHILDREN = {"pass": child_pass, "import": child_import, "integrate_attr": child_integrate_attr,
-            "first_call": child_first_call, "first_calls": child_first_calls}
+            "first_call": child_first_call, "first_call_spec": child_first_call_spec,
+            "first_calls": child_first_calls}
 
 
 if __name__ == "__main__":

@@ -18,6 +18,16 @@ Three measurements, one run:
   ``integrate()`` call of every method, in registry order, on the free body and on the
   heavy top, first with the cache empty (numba compiles and writes the cache), then
   with it full (numba loads it).
+* **Fixed costs per call.** In this process, as multiples of one ``splitting2`` step on the
+  free body measured in the same run: a one-step ``integrate()`` (free body; new initial
+  state each call; the default exact flow; a user torque; a controlled body) and one
+  :class:`liebody.Stepper` ``step()`` (free body, heavy top, controlled body with its
+  controls set before each step). Targets: ``integrate()`` within
+  :data:`FIXED_TARGETS` steps on a free body and with a user torque, ``step()`` within 20.
+* **First call with an empty cache.** Fresh processes, each with its own empty numba
+  cache: from ``import liebody`` to the end of the first ``integrate()`` of a stepping
+  method (target: :data:`FIRST_CALL_TARGET_S`), and the whole first run of
+  ``python -m liebody demo`` (target: :data:`DEMO_TARGET_S`).
 * **Import time.** Medians over fresh processes (:mod:`bench.child`) of
   ``import liebody``, ``import liebody; liebody.integrate`` (the lazy attribute that
   loads numba) and the first ``integrate()`` call with a warm cache, less an empty child.
@@ -48,6 +58,12 @@ from bench import core
 from bench.problems import Problem, method_names, problems
 
 TARGET_RATIO = 1.25  # target: splitting2 within 1.25x of the C code
+#: fixed-cost targets, in steps of splitting2 on the free body
+FIXED_TARGETS = {"integrate_free": 100, "integrate_user_torque": 150, "stepper_free": 20}
+#: first call of a stepping method in a fresh process with an empty numba cache [s]
+FIRST_CALL_TARGET_S = 3.0
+#: the demo's first run with an empty numba cache [s]
+DEMO_TARGET_S = 8.0
 
 #: the C reference, built by :func:`build_c`
 C_SOURCE = Path(__file__).resolve().parent / "c" / "splitting2.c"
@@ -71,7 +87,8 @@ def settings(quick: bool, steps: int | None = None) -> dict:
     common = {"h_free": 0.01, "h_top": 0.01, "exact_divisor": 20, "min_steps": 10_000,
               "probe_steps": 10_000, "compile_steps": 10, "min_batch": 0.02}
     if quick:
-        cfg = {**common, "steps": 200_000, "repeat": 3, "cap_s": 0.03, "import_repeat": 3}
+        cfg = {**common, "steps": 200_000, "repeat": 3, "cap_s": 0.03, "import_repeat": 3,
+               "quick": True}
     else:
         cfg = {**common, "steps": 2_000_000, "repeat": 5, "cap_s": 0.3, "import_repeat": 5}
     if steps is not None:
@@ -205,6 +222,112 @@ def call_overhead(cfg: dict) -> float:
     med, _ = core.median_time(lambda: pb.integrate("splitting2", cfg["h_free"], 1, 1),
                               cfg["repeat"], cfg["min_batch"])
     return med
+
+
+# ------------------------------------------------------------------ fixed costs
+
+
+def _torques():
+    """A user torque of the orientation (gravity-gradient-like) and a commanded torque."""
+    from numba import njit
+
+    @njit
+    def gradient(t, q, L):
+        w, x, y, z = q[0], q[1], q[2], q[3]
+        g1, g2, g3 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z
+        return np.array([3.0 * (g2 * g3), -3.0 * (g1 * g3), 0.0])
+
+    @njit
+    def commanded(t, q, L, u):
+        return u.copy()
+
+    return gradient, commanded
+
+
+def fixed_costs(cfg: dict) -> dict:
+    """Seconds per call of short ``integrate()`` calls and of ``Stepper.step()``."""
+    pb, top = problems()["hlw"], problems()["top"]
+    h = cfg["h_free"]
+    gradient, commanded = _torques()
+    body = pb.scene.body
+    user = liebody.TorqueBody(body, gradient, orientation_only=True)
+    controlled = liebody.ControlledBody(body, commanded, controls=3, orientation_only=True)
+    rng = np.random.default_rng(1)
+    fresh = [pb.L0 * (1.0 + 1e-3 * rng.standard_normal(3)) for _ in range(256)]
+    k = iter(range(10**12))
+
+    def new_state():
+        return liebody.integrate(pb.scene, L0=fresh[next(k) % 256], dt=h, steps=1,
+                                 method="splitting2")
+
+    s_free = liebody.Stepper(pb.scene, q0=pb.q0, L0=pb.L0, dt=h, method="splitting2")
+    s_top = liebody.Stepper(top.scene, q0=top.q0, L0=top.L0, dt=cfg["h_top"],
+                            method="splitting2")
+    s_ctl = liebody.Stepper(controlled, q0=pb.q0, L0=pb.L0, dt=h, method="splitting2")
+    u = np.array([1e-3, -2e-3, 0.5e-3])
+
+    def controlled_step():
+        s_ctl.u = u
+        s_ctl.step()
+
+    cases = {
+        "integrate_free": ("integrate(steps=1), free body, splitting2",
+                           lambda: liebody.integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=h,
+                                                     steps=1, method="splitting2")),
+        "integrate_new_state": ("integrate(steps=1), free body, splitting2, a new initial "
+                                "state each call (the plan is made afresh)", new_state),
+        "integrate_exact": ("integrate(steps=1), free body, default method (exact flow)",
+                            lambda: liebody.integrate(pb.scene, L0=pb.L0, dt=h, steps=1)),
+        "integrate_user_torque": ("integrate(steps=1), user torque t(t, q, L), splitting2",
+                                  lambda: liebody.integrate(user, L0=pb.L0, dt=h, steps=1,
+                                                            method="splitting2")),
+        "integrate_controlled": ("integrate(steps=1), controlled body, controls given",
+                                 lambda: liebody.integrate(controlled, L0=pb.L0, dt=h, steps=1,
+                                                           method="splitting2", controls=u)),
+        "stepper_free": ("Stepper.step(), free body, splitting2", s_free.step),
+        "stepper_top": ("Stepper.step(), heavy top, splitting2", s_top.step),
+        "stepper_controlled": ("Stepper: u set, then step(), controlled body",
+                               controlled_step),
+    }
+    out = {}
+    for key, (what, fn) in cases.items():
+        med, times = core.median_time(fn, cfg["repeat"], cfg["min_batch"])
+        out[key] = {"what": what, "s": med, "min_s": min(times), "max_s": max(times)}
+    return out
+
+
+def first_call_times(cfg: dict) -> dict:
+    """Fresh processes, each with its own empty numba cache: the first ``integrate()`` of a
+    few stepping methods (import included), and the first run of the demo."""
+    pb, top = problems()["hlw"], problems()["top"]
+    free_spec = {"scene": "free", "moments": pb.moments.tolist(), "q0": pb.q0.tolist(),
+                 "L0": pb.L0.tolist(), "dt": cfg["h_free"], "steps": cfg["compile_steps"]}
+    top_spec = {"scene": "top", "moments": top.moments.tolist(), "mass": 20.0,
+                "cm": [0.0, 0.0, 1.0], "g": 1.0, "q0": top.q0.tolist(), "L0": top.L0.tolist(),
+                "dt": cfg["h_top"], "steps": cfg["compile_steps"]}
+    cases = [("free", "splitting2"), ("top", "splitting2")]
+    if not cfg.get("quick"):
+        cases += [("free", "rattle"), ("free", "rk4"), ("top", "rattle"), ("free", "exact")]
+    out: dict = {"calls": {}}
+    for scene, method in cases:
+        spec = dict(free_spec if scene == "free" else top_spec, method=method)
+        with tempfile.TemporaryDirectory(prefix="liebody-numba-cache-") as cache:
+            line, wall, error = _child("first_call_spec", [json.dumps(spec)], Path(cache))
+        key = f"{method} ({scene})"
+        if error is not None:
+            out["calls"][key] = {"error": error}
+            continue
+        total, alone = (float(v) for v in line.split())
+        out["calls"][key] = {"import_to_done_s": total, "call_s": alone, "process_s": wall}
+    with tempfile.TemporaryDirectory(prefix="liebody-numba-cache-") as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, MPLBACKEND="Agg")
+        t0 = time.perf_counter()
+        res = subprocess.run([sys.executable, "-m", "liebody", "demo"], env=env,
+                             capture_output=True, text=True, timeout=600)
+        out["demo_first_run_s"] = time.perf_counter() - t0
+        if res.returncode != 0:
+            out["demo_error"] = res.stderr.strip()[-500:]
+    return out
 
 
 # ------------------------------------------------------------------ fresh processes
@@ -355,12 +478,14 @@ def run(cfg: dict, progress: core.Progress) -> dict:
     ``integrate()`` call overhead, compile and import times (the body of the JSON)."""
     free, top = problems()["hlw"], problems()["top"]
     order = axis_ordering(free, cfg["h_free"])
-    jobs = ["C", *method_names(), "compile", "import"]
+    jobs = ["C", *method_names(), "compile", "first calls", "import", "fixed costs"]
     bar = progress(jobs, "step cost")
     c_ref: dict = {}
     rows: dict[str, dict] = {}
     compile_info: dict = {}
     imports: dict = {}
+    first: dict = {}
+    fixed: dict = {}
     with tempfile.TemporaryDirectory(prefix="liebody-numba-cache-") as cache:
         for job in bar:
             bar.set_postfix_str(job)
@@ -370,6 +495,10 @@ def run(cfg: dict, progress: core.Progress) -> dict:
                 compile_info = compile_times(Path(cache), cfg)
             elif job == "import":
                 imports = import_times(Path(cache), cfg)
+            elif job == "first calls":
+                first = first_call_times(cfg)
+            elif job == "fixed costs":
+                fixed = fixed_costs(cfg)
             else:
                 m = liebody.methods()[job]
                 row = {"family": m.family,
@@ -382,6 +511,18 @@ def run(cfg: dict, progress: core.Progress) -> dict:
                                      if c_ns and row["free"]["ns"] else None)
                 rows[job] = row
     overhead = call_overhead(cfg)
+    step_ns = (rows.get("splitting2", {}).get("free") or {}).get("ns")
+    if step_ns:  # fixed costs in steps of splitting2 on the free body, this run
+        for key, row in fixed.items():
+            row["steps"] = row["s"] * 1e9 / step_ns["median"]
+            if key in FIXED_TARGETS:
+                row["target_steps"] = FIXED_TARGETS[key]
+                row["met"] = bool(row["steps"] <= FIXED_TARGETS[key])
+    for row in first.get("calls", {}).values():
+        if "import_to_done_s" in row:
+            row["met"] = bool(row["import_to_done_s"] <= FIRST_CALL_TARGET_S)
+    if "demo_first_run_s" in first:
+        first["demo_met"] = bool(first["demo_first_run_s"] <= DEMO_TARGET_S)
 
     s2 = rows.get("splitting2", {}).get("ratio_to_c")
     return {
@@ -394,6 +535,9 @@ def run(cfg: dict, progress: core.Progress) -> dict:
                    "ratio": s2, "limit": TARGET_RATIO,
                    "met": None if s2 is None else bool(s2 <= TARGET_RATIO)},
         "integrate_call_overhead_s": overhead,
+        "fixed_costs": fixed,
+        "first_calls": {**first, "target_s": FIRST_CALL_TARGET_S,
+                        "demo_target_s": DEMO_TARGET_S},
         "compile": compile_info,
         "import": imports,
     }
@@ -590,6 +734,29 @@ def report(summary: dict) -> str:
                      f"{tg['ratio']:.2f}x -> {'met' if tg['met'] else 'NOT met'}")
     lines.append(f"integrate() fixed cost per call (1 step): "
                  f"{1e6 * summary['integrate_call_overhead_s']:.0f} us")
+    fixed = summary.get("fixed_costs") or {}
+    if fixed:
+        lines.append("== fixed costs per call, in steps of splitting2 on the free body (this run)")
+        for row in fixed.values():
+            steps = row.get("steps")
+            tgt = (f"  (target <= {row['target_steps']}: "
+                   f"{'met' if row['met'] else 'NOT met'})" if "target_steps" in row else "")
+            st = "?" if steps is None else f"{steps:7.1f}"
+            lines.append(f"{row['what']:72s} {1e6 * row['s']:8.2f} us = {st} steps{tgt}")
+    first = summary.get("first_calls") or {}
+    if first.get("calls"):
+        lines.append(f"== first call in a fresh process with an empty numba cache (import "
+                     f"included; target <= {first['target_s']:g} s)")
+        for key, row in first["calls"].items():
+            if "error" in row:
+                lines.append(f"{key:22s} failed: {row['error']}")
+                continue
+            lines.append(f"{key:22s} {row['import_to_done_s']:6.2f} s (the call "
+                         f"{row['call_s']:.2f} s) -> {'met' if row['met'] else 'NOT met'}")
+        if "demo_first_run_s" in first:
+            lines.append(f"python -m liebody demo, first run: {first['demo_first_run_s']:.1f} s "
+                         f"(target <= {first['demo_target_s']:g} s: "
+                         f"{'met' if first['demo_met'] else 'NOT met'})")
 
     comp = summary["compile"]
     lines.append(f"== compile: first integrate() call ({comp['steps_per_call']} steps) per "

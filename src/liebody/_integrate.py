@@ -361,7 +361,7 @@ def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None) ->
     if value.shape != (3,):
         raise ValueError(f"the torque {sig} must return 3 numbers, got shape "
                          f"{value.shape} on the initial state")
-    if not np.all(np.isfinite(value)):
+    if not all(map(math.isfinite, value.tolist())):
         raise TorqueError(f"the torque {sig} returned non-finite values "
                           f"{value.tolist()} on the initial state", step=0, t=0.0)
 

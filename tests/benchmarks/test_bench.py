@@ -158,6 +158,13 @@ def test_step_cost_times_every_method(quick):
         assert set(summary["compile"][phase]["methods"]) == set(method_names())
     assert summary["import"]["in_process_s"]["import_liebody"] > 0
     assert "errors" not in summary["import"]
+    # fixed costs and first calls measured (as multiples of a step: never asserted)
+    fixed = summary["fixed_costs"]
+    assert {"integrate_free", "integrate_user_torque", "stepper_free"} <= set(fixed)
+    assert all(row["s"] > 0 and row["steps"] > 0 for row in fixed.values())
+    first = summary["first_calls"]
+    assert first["calls"] and not any("error" in row for row in first["calls"].values())
+    assert first["demo_first_run_s"] > 0 and "demo_error" not in first
 
 
 @pytest.mark.long
