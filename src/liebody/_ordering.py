@@ -34,19 +34,35 @@ def _cross(a, b):
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
-def _grad_bracket(A, B, m):
-    """Gradient of ``{a, b}(m) = -m . (A m x B m)`` for diagonal symmetric ``A``, ``B``."""
-    Am, Bm = A * m, B * m
-    return -(_cross(Am, Bm) + A * _cross(Bm, m) + B * _cross(m, Am))
+def h3_vector(pieces: list[np.ndarray]) -> np.ndarray:
+    """The vector ``V`` with ``H3(m) = V . w(m^2)`` (see :func:`h3`), ``(..., 3)``.
+
+    For quadratic pieces ``X = a . m^2 / 2``, ``Y = b . m^2 / 2`` the bracket is a cubic,
+    ``{X, Y} = -s(a x b) m1 m2 m3`` with ``s(v) = v1 + v2 + v3``, and one more bracket
+    gives ``{X, {X, Y}} = s(a x b) a . w(u)``, ``u = m^2``, ``w(u) = (u1 u3 - u1 u2,
+    u1 u2 - u2 u3, u2 u3 - u1 u3)``. Summed over the levels ``i`` (piece ``a_i``, the
+    rest ``r_i``): ``V = sum_i s(a_i x r_i) (-a_i / 24 - r_i / 12)``.
+    """
+    V = 0.0
+    for i in range(len(pieces) - 1):
+        a = np.asarray(pieces[i], dtype=float)
+        r = np.sum(np.asarray(pieces[i + 1:], dtype=float), axis=0)
+        s = np.sum(_cross(a, r), axis=-1)
+        V = V + s[..., None] * (-a / 24.0 - r / 12.0)
+    return np.asarray(V)
 
 
-def _nested(X, Y, m):
-    """``{x, {x, y}}(m)`` with ``{f, g}(m) = -m . (grad f x grad g)``."""
-    return -np.sum(m * _cross(X * m, _grad_bracket(X, Y, m)), axis=-1)
+def _w(u: np.ndarray) -> np.ndarray:
+    """``w(u) = (u1 u3 - u1 u2, u1 u2 - u2 u3, u2 u3 - u1 u3)`` over the last axis."""
+    u1, u2, u3 = u[..., 0], u[..., 1], u[..., 2]
+    return np.stack([u1 * (u3 - u2), u2 * (u1 - u3), u3 * (u2 - u1)], axis=-1)
 
 
 def h3(pieces: list[np.ndarray], m: np.ndarray) -> np.ndarray:
     """Evaluate ``H3`` of the nested palindromic splitting with the given pieces.
+
+    ``H3`` is a quadratic form in ``u = m^2``: ``H3 = V . w(u)`` (:func:`h3_vector`),
+    the closed form of the nested brackets for diagonal pieces.
 
     Parameters
     ----------
@@ -57,12 +73,7 @@ def h3(pieces: list[np.ndarray], m: np.ndarray) -> np.ndarray:
         Points ``(..., 3)``.
     """
     m = np.asarray(m, dtype=float)
-    total = 0.0
-    for i in range(len(pieces) - 1):
-        X = np.asarray(pieces[i], dtype=float)
-        R = np.sum(pieces[i + 1:], axis=0)
-        total += -_nested(X, R, m) / 24.0 + _nested(R, X, m) / 12.0
-    return total
+    return np.sum(h3_vector(pieces) * _w(m * m), axis=-1)
 
 
 def orbit_samples(moments: np.ndarray, m0: np.ndarray, n: int = 3) -> np.ndarray:
@@ -260,8 +271,8 @@ def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
 
 def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray):
     samples, point = orbit_segments(moments, m0)
-    levels = _levels(pieces_of, moments)  # each (6, N, 3)
-    f = h3([lev[:, :, None, :] for lev in levels], samples[None])  # (6, N, 3)
+    V = h3_vector(_levels(pieces_of, moments))  # (6, N, 3)
+    f = np.einsum("onj,nkj->onk", V, _w(samples * samples))  # (6, N, 3): H3 at the samples
     scores = _quadratic_range(f[..., 0], f[..., 1], f[..., 2])
     scores = np.where(point[None, :], 0.0, scores)
     k = np.argmin(scores, axis=0)
