@@ -48,7 +48,7 @@ class EnsembleRun:
     """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 threads, diagnostics=False, u=None):
+                 threads, diagnostics=False, u=None, t0=0.0):
         from liebody._integrate import diagnostic_reference, time_slices
 
         self.scene, self.method, self.dt = scene, method, dt
@@ -57,6 +57,7 @@ class EnsembleRun:
         self.model, self.progress = model, progress
         self.threads = threads
         self.u = u  # the controls: (k,) or (N, k), or None
+        self.t0 = t0  # the start time; self.t holds the sample times relative to it
         self.slices = time_slices
         n, k = q0.shape[0], t.shape[0]
         self.q_out = np.empty((n, k, 4))
@@ -174,7 +175,8 @@ class EnsembleRun:
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
         p = g["plan"]
         g["runner"](p.kinds, p.axes, p.coefs, p.clock, g["params"][c],
-                    p.merge_ends and not self.diag, self.dt, float(done), k, self.save_every,
+                    p.merge_ends and not self.diag, self.dt, self.t0, float(done), k,
+                    self.save_every,
                     final, g["state"][c], g["ctl"][c],
                     g["q"][c], g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
                     self.model.address, g["dref"][c], g["dmax"][c])
@@ -198,7 +200,7 @@ class EnsembleRun:
             first = 1 + int(self.saved[i])
             self.q_out[i, first:n_keep] = np.nan
             self.m_out[i, first:n_keep] = np.nan
-            failed_at[i] = (self.done[i] + 1) * self.dt
+            failed_at[i] = self.t0 + (self.done[i] + 1) * self.dt
         return failed_at
 
     def _result(self, n_keep: int) -> Trajectory:
@@ -225,7 +227,7 @@ class EnsembleRun:
                 self.dmax = sample_diagnostics(self.dref, self.q_out, self.m_out)
             self.dmax[self.status != S.STATUS_OK] = np.nan
             diag = diagnostics_dict(self.dmax, False)
-        traj = Trajectory(self.t[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
+        traj = Trajectory(self._times()[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
                           self.scene, self.method, self.dt, failed_at=failed_at,
                           info=self.info, status=status, diagnostics=diag)
         from liebody._integrate import warn_invariants
@@ -236,14 +238,18 @@ class EnsembleRun:
         n_keep = min(n_keep, len(self.t))
         failed_at = self._blank_after_failures(n_keep)
         status = np.array(["interrupted"] * self.n, dtype=object)
-        traj = Trajectory(self.t[:n_keep].copy(), self.q_out[:, :n_keep].copy(),
+        traj = Trajectory(self._times()[:n_keep].copy(), self.q_out[:, :n_keep].copy(),
                           self.m_out[:, :n_keep].copy(), self.scene, self.method, self.dt,
                           failed_at=failed_at, info=self.info, status=status)
         step = min((n_keep - 1) * self.save_every, self.n_steps)
         raise IntegrationInterrupted(
             f"{self.method.name}: interrupted near step {step:,} of {self.n_steps:,}; the "
             f"{n_keep:,} samples of each of the {self.n:,} bodies computed so far are on this "
-            f"exception's .trajectory", traj, step, step * self.dt) from None
+            f"exception's .trajectory", traj, step, self.t0 + step * self.dt) from None
+
+    def _times(self) -> np.ndarray:
+        """The sample times ``t0 + t``."""
+        return self.t if self.t0 == 0.0 else self.t0 + self.t
 
 
 def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:

@@ -203,7 +203,7 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, progress: bool = False,
               threads: int | None = None, diagnostics: bool = False,
-              controls=None) -> Trajectory:
+              controls=None, t0: float = 0.0) -> Trajectory:
     """Integrate a rigid-body scene with a fixed step.
 
     Parameters
@@ -220,8 +220,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     dt
         Step size (> 0). For ``method="exact"`` it only sets the output spacing.
     steps, t_end
-        Exactly one: number of steps (at most 2^53), or final time (a whole multiple of
-        ``dt``).
+        Exactly one: number of steps (at most 2^53), or the duration of the run (a
+        whole multiple of ``dt``; the run ends at ``t0 + t_end``).
     method
         A name from :func:`liebody.methods` or ``None`` for the scene's default. For a
         :class:`~liebody.FreeBody` the default is ``"exact"``: the free body is
@@ -251,6 +251,10 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         for the whole run: ``(k,)``, or one row per body ``(N, k)`` (zeros when not
         given). To change them during a run (a controller), use a
         :class:`liebody.Stepper`, or integrate piece by piece.
+    t0
+        The time of the initial state (default 0): the samples are at ``t0 + k dt`` and a
+        time-dependent torque sees that clock, so a run can continue where another
+        ended.
 
     Ensembles
     ---------
@@ -296,6 +300,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     _check_batch("q0", q_init)
     m_init = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
+    if t0 != 0.0:
+        t0 = float(as_float_array("t0", t0, shape=()))
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(progress, bool | np.bool_):
@@ -316,14 +322,14 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         _check_torque(model, q_init, m_init, u)
         t = _sample_times(n_steps, save_every, dt)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
-                   diagnostics, u)
+                   diagnostics, u, t0)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
         _check_torque(model, q_init[0], m_init[0], _first_row(u))
         t = _sample_times(n_steps, save_every, dt, n_bodies)
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
-                          progress, threads, diagnostics, u)
+                          progress, threads, diagnostics, u, t0)
     return run.sampled() if method.sampled else run.stepped()
 
 
@@ -366,23 +372,25 @@ def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None) ->
                           f"{value.tolist()} on the initial state", step=0, t=0.0)
 
 
-def as_controls(scene, controls, n_bodies: int | None) -> np.ndarray | None:
+def as_controls(scene, controls, n_bodies: int | None, name: str = "controls"
+                ) -> np.ndarray | None:
     """The control inputs ``u`` of a :class:`~liebody.ControlledBody`: ``(k,)``, or one
-    row per body ``(N, k)``; ``None`` for a scene without controls."""
+    row per body ``(N, k)``; ``None`` for a scene without controls (``name``: the
+    argument's name in messages)."""
     k = getattr(scene, "controls", 0)
     if not k:
         if controls is not None:
-            raise ValueError(f"controls: the scene {type(scene).__name__} takes no control "
+            raise ValueError(f"{name}: the scene {type(scene).__name__} takes no control "
                              f"inputs (use a liebody.ControlledBody)")
         return None
     if controls is None:
         u = np.zeros(k)
     else:
-        u = np.array(as_float_array("controls", controls, last_dim=k))
-        _check_batch("controls", u)
+        u = np.array(as_float_array(name, controls, last_dim=k))
+        _check_batch(name, u)
     if u.ndim == 2 and (n_bodies is None or u.shape[0] != n_bodies):
         told = "one body" if n_bodies is None else f"{n_bodies} bodies"
-        raise ValueError(f"controls of shape {u.shape} give one row per body for "
+        raise ValueError(f"{name} of shape {u.shape} give one row per body for "
                          f"{u.shape[0]} bodies, but the run has {told}")
     return u
 
@@ -434,9 +442,10 @@ class _Run:
     """One call of :func:`integrate` after validation: runs it and reports the outcome."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 diagnostics=False, u=None):
+                 diagnostics=False, u=None, t0=0.0):
         self.scene, self.method, self.dt = scene, method, dt
         self.u = u
+        self.t0 = t0  # the start time; self.t holds the sample times relative to it
         self.q0, self.m0 = q0, m0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
@@ -468,7 +477,7 @@ class _Run:
                 bad = ~(np.isfinite(q[sl]).all(axis=1) & np.isfinite(m[sl]).all(axis=1))
                 if bad.any():
                     k = done + int(np.argmax(bad))
-                    return self._failed_nonfinite(k, k - 1, t[k])
+                    return self._failed_nonfinite(k, k - 1, self.t0 + t[k])
                 done += n
         except KeyboardInterrupt:
             self._interrupted(done, self._step_of_sample(done - 1))
@@ -477,8 +486,12 @@ class _Run:
             from liebody._ensemble import sample_diagnostics
 
             diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True)
-        return self._finish(Trajectory(t, q, m, self.scene, self.method, self.dt,
+        return self._finish(Trajectory(self._times(), q, m, self.scene, self.method, self.dt,
                                        diagnostics=diag))
+
+    def _times(self) -> np.ndarray:
+        """The sample times ``t0 + t``."""
+        return self.t if self.t0 == 0.0 else self.t0 + self.t
 
     def _step_of_sample(self, k: int) -> int:
         return min(k * self.save_every, self.n_steps)
@@ -504,13 +517,13 @@ class _Run:
         status = S.STATUS_OK
         try:
             if self.n_steps <= FIRST_SLICE and not self.progress:  # a short run: one call
-                done, saved, status = runner(*table, self.dt, 0.0, self.n_steps,
+                done, saved, status = runner(*table, self.dt, self.t0, 0.0, self.n_steps,
                                              self.save_every, True, state, ctl, self.q_out[1:],
                                              self.m_out[1:], addr, self.dref, self.dmax)
             else:
                 for n in self._slices(self.n_steps, "step"):
-                    d, s, status = runner(*table, self.dt, float(done), n, self.save_every,
-                                          done + n == self.n_steps, state, ctl,
+                    d, s, status = runner(*table, self.dt, self.t0, float(done), n,
+                                          self.save_every, done + n == self.n_steps, state, ctl,
                                           self.q_out[1 + saved:], self.m_out[1 + saved:],
                                           addr, self.dref, self.dmax)
                     done += d
@@ -520,8 +533,8 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
-            traj = Trajectory(self.t, self.q_out, self.m_out, self.scene, self.method, self.dt,
-                              info=self.info, diagnostics=self._diagnostics())
+            traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene, self.method,
+                              self.dt, info=self.info, diagnostics=self._diagnostics())
             return self._finish(traj)
         return self._failed(status, done, saved, state)
 
@@ -532,7 +545,7 @@ class _Run:
 
     # -------------------------------------------------------------- outcomes
     def _partial(self, n_keep: int, status: str, failed_at: float | None = None) -> Trajectory:
-        return Trajectory(self.t[:n_keep].copy(), self.q_out[:n_keep].copy(),
+        return Trajectory(self._times()[:n_keep].copy(), self.q_out[:n_keep].copy(),
                           self.m_out[:n_keep].copy(), self.scene, self.method, self.dt,
                           failed_at=failed_at, info=self.info, status=status)
 
@@ -540,8 +553,8 @@ class _Run:
         traj = self._partial(n_keep, "interrupted")
         raise IntegrationInterrupted(
             f"{self.method.name}: interrupted after {step:,} of {self.n_steps:,} steps "
-            f"(t = {step * self.dt:.6g}); the {n_keep:,} samples computed so far are on this "
-            f"exception's .trajectory", traj, step, step * self.dt) from None
+            f"(t = {self.t0 + step * self.dt:.6g}); the {n_keep:,} samples computed so far are "
+            f"on this exception's .trajectory", traj, step, self.t0 + step * self.dt) from None
 
     def _failed_nonfinite(self, n_keep: int, step: int, t_fail: float) -> Trajectory:
         traj = self._partial(n_keep, "failed", failed_at=t_fail)
@@ -554,7 +567,7 @@ class _Run:
     def _failed(self, status: int, done: int, saved: int, state: np.ndarray) -> Trajectory:
         name, dt = self.method.name, self.dt
         n_keep = 1 + saved
-        t0 = done * dt  # the failing step starts here
+        t0 = self.t0 + done * dt  # the failing step starts here
         where = (f"at step {done + 1:,} (t = {t0:.6g}); the {n_keep:,} samples before it are "
                  f"on this exception's .trajectory")
         if status == S.STATUS_NONFINITE:
@@ -565,7 +578,7 @@ class _Run:
                     self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
                 raise_torque_error(self.model, name, where, state, t0, dt,
                                    self._partial(n_keep, "failed", failed_at=t0), done, self.u)
-            return self._failed_nonfinite(n_keep, done, (done + 1) * dt)
+            return self._failed_nonfinite(n_keep, done, t0 + dt)
         traj = self._partial(n_keep, "failed", failed_at=t0)
         if status == S.STATUS_TORQUE:
             raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u)

@@ -148,7 +148,8 @@ class Stepper:
             _check_torque(self._model, self._state[0, :4], self._state[0, 4:],
                           _first_row(self._u))
         self._status = np.zeros(1 if n is None else n, dtype=np.int64)
-        self._k = 0.0  # the clock in steps: t = k dt
+        self._t0 = 0.0  # the clock: t = t0 + k dt, k the steps since t was last set
+        self._k = 0.0
         self._steps = 0
         self._pool = None
         self._plan()
@@ -179,11 +180,11 @@ class Stepper:
                           self._model.address, np.zeros(10), np.zeros(3))
             runner = RUNNERS[plan.family]
             self._ctl[:] = (1, 0)
-            args = [*self._head, 0.0, 0, 1, *self._tail]
+            args = [*self._head, self._t0, 0.0, 0, 1, *self._tail]
             runner(*args)  # compiles on first use; no step
             self._call = _entry_point(runner, args)
             # one step: save_every = 1 leaves ctl at (1, 0), as the next step needs it
-            args[8] = 1
+            args[9] = 1
             self._args = args
             self._fast = True
             return
@@ -216,17 +217,16 @@ class Stepper:
         Raises the errors of :func:`liebody.integrate` for one body (the stepper is then
         as before the call); marks failing bodies of an ensemble (:attr:`failed`).
         """
-        if n == 1 and self._fast:  # the control loop: one compiled call, nothing else
+        if type(n) is int and n == 1 and self._fast:  # the control loop: one compiled call
             args = self._args
-            args[7] = self._k
+            args[8] = self._k
             status = self._call(*args)[2]
             if status != S.STATUS_OK:  # the kernel has restored the state before the step
                 self._raise(status, 0, self._state.copy())
             self._steps += 1
             self._k += 1.0
             return
-        if n != 1:
-            n = as_positive_int("n", n)
+        n = as_positive_int("n", n)
         if self._stale:
             self._plan()
         if self._method.sampled:
@@ -239,15 +239,18 @@ class Stepper:
         self._k += n
 
     def _one(self, n: int) -> None:
-        """One body: the compiled driver on the state, one call per slice of steps."""
+        """One body: the compiled driver on the state, in slices of steps that carry the
+        driver's control across (so the slices change no bit of the result)."""
         ctl = self._ctl
         start = self._state.copy()
         done = 0
+        head, (_, *tail) = self._head, self._tail
+        ctl[0], ctl[1] = n, 0  # save once, after the n-th step
         try:
             while done < n:
                 k = min(n - done, _SLICE)
-                ctl[0], ctl[1] = k, 0
-                d, _, status = self._call(*self._head, self._k + done, k, k, *self._tail)
+                d, _, status = self._call(*head, self._t0, self._k + done, k, n,
+                                          done + k == n, *tail)
                 if status != S.STATUS_OK:
                     bad = self._state.copy()
                     self._state[:] = start
@@ -260,7 +263,7 @@ class Stepper:
             ctl[0], ctl[1] = 1, 0
             raise IntegrationInterrupted(
                 f"Stepper.step({n}) interrupted after {done:,} steps; the stepper is left "
-                f"as it was before the call", None, done, (self._k + done) * self._dt) from None
+                f"as it was before the call", None, done, self._clock(done)) from None
 
     def _raise(self, status: int, done: int, state: np.ndarray):
         """The error of a failed step, after ``done`` good steps of this call from the
@@ -268,7 +271,7 @@ class Stepper:
         from liebody._integrate import raise_torque_error, torque_stiffness
 
         name, dt = self._method.name, self._dt
-        t0 = (self._k + done) * dt
+        t0 = self._clock(done)
         where = (f"at step {done + 1} of this call (t = {t0:.6g}); the stepper is left as it "
                  f"was before the call")
         if status == S.STATUS_TORQUE or (status == S.STATUS_NONFINITE
@@ -303,17 +306,19 @@ class Stepper:
         before = [g["status"].copy() for g in self._groups]
         pool = self._thread_pool() if len(chunks) > 1 else None
         done = 0
+        for g in self._groups:
+            g["ctl"][:] = (n, 0)  # save once, after the n-th step
+            g["saved"][:] = 0
         try:
             while done < n:
                 k = min(n - done, _SLICE)
 
-                def run(gc, k=k, step0=self._k + done):
+                def run(gc, k=k, step0=self._k + done, final=done + k == n):
                     g, c = gc
-                    g["ctl"][c] = (k, 0)
-                    g["saved"][c] = 0
                     g["runner"](g["plan"].kinds, g["plan"].axes, g["plan"].coefs,
                                 g["plan"].clock, g["params"][c], g["plan"].merge_ends,
-                                self._dt, step0, k, k, True, g["state"][c], g["ctl"][c],
+                                self._dt, self._t0, step0, k, n, final, g["state"][c],
+                                g["ctl"][c],
                                 g["q"][c], g["m"][c], g["saved"][c], g["done"][c],
                                 g["status"][c], self._model.address, g["dref"][c],
                                 g["dmax"][c])
@@ -331,8 +336,7 @@ class Stepper:
                 g["status"][:] = b
             raise IntegrationInterrupted(
                 f"Stepper.step({n}) interrupted after about {done:,} steps; the stepper is "
-                f"left as it was before the call", None, done,
-                (self._k + done) * self._dt) from None
+                f"left as it was before the call", None, done, self._clock(done)) from None
         new = []
         for g, s, b in zip(self._groups, starts, before, strict=True):
             fresh = (g["status"] != S.STATUS_OK) & (b == S.STATUS_OK)
@@ -379,8 +383,8 @@ class Stepper:
                              m)
             if not (np.isfinite(q).all() and np.isfinite(m).all()):
                 raise IntegrationError(f"exact: the state became non-finite (t = "
-                                       f"{self._k * self._dt:.6g}); the stepper is left as it "
-                                       f"was before the call", None, 0, self._k * self._dt)
+                                       f"{self.t:.6g}); the stepper is left as it was before "
+                                       f"the call", None, 0, self.t)
             self._state[:4], self._state[4:] = q[0], m[0]
             return
         from liebody._kernels.exact import exact_flow_bodies
@@ -429,12 +433,25 @@ class Stepper:
     def t(self) -> float:
         """The time, ``k dt`` after ``k`` steps from 0; settable (the clock the torque sees
         continues from there)."""
-        return self._k * self._dt
+        return self._t0 + self._k * self._dt
 
     @t.setter
     def t(self, value) -> None:
-        t = float(as_float_array("t", value))
-        self._k = t / self._dt
+        self._t0 = float(as_float_array("t", value, shape=()))
+        self._k = 0.0
+        if self._fast:
+            self._args[7] = self._t0
+
+    def _clock(self, done: int) -> float:
+        """The time after ``done`` more steps."""
+        return self._t0 + (self._k + done) * self._dt
+
+    def replan(self) -> None:
+        """Plan the method again for the current state (the axis ordering of the
+        splittings, the modified moments of preprocessed DMV are chosen for the orbit of
+        the state): worthwhile when a controller has moved the body to a very different
+        orbit. Setting :attr:`L` does it too."""
+        self._stale, self._fast = True, False
 
     @property
     def q(self) -> np.ndarray:
@@ -499,6 +516,8 @@ class Stepper:
         if self._u is None:
             raise ValueError(f"u: the scene {type(self._scene).__name__} takes no control "
                              f"inputs (use a liebody.ControlledBody)")
+        if value is None:
+            raise TypeError("u must be the control inputs (an array of numbers), got None")
         try:
             u = np.array(value, dtype=np.float64)
         except (TypeError, ValueError):
@@ -508,7 +527,7 @@ class Stepper:
                 else bool(np.isfinite(u).all())):
             from liebody._integrate import as_controls
 
-            u = as_controls(self._scene, value, self._n)  # raises, naming the rule
+            u = as_controls(self._scene, value, self._n, name="u")  # raises, naming the rule
             u = np.array(np.broadcast_to(u, self._u.shape))
         self._u = u
         if self._method.sampled:

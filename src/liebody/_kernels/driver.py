@@ -267,16 +267,17 @@ def _runner(family: int, diag: bool = False):
     """
 
     @jit
-    def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every, final,
-            state, ctl, q_out, m_out, torque_addr, dref, dmax):
+    def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
+            final, state, ctl, q_out, m_out, torque_addr, dref, dmax):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
         The run may be cut into slices (calls) of any length without changing a bit of
-        the result: the clock is ``t = (step0 + step) h`` with ``step0`` (a float) the
-        steps done before this call, and ``ctl`` (int64, in place) carries across calls
-        the steps left until the next save (``ctl[0]``, start a run with ``save_every``)
-        and whether the first stage of the next step was already applied, merged into
-        the last stage of this one (``ctl[1]``, start with 0). Every ``save_every``-th
+        the result: the clock is ``t = t0 + (step0 + step) h`` with ``t0`` the run's start
+        time and ``step0`` (a float) the steps done before this call, and ``ctl`` (int64,
+        in place) carries across calls the steps left until the next save (``ctl[0]``,
+        start a run with ``save_every``) and whether the first stage of the next step was
+        already applied, merged into the last stage of this one (``ctl[1]``, start with
+        0). Every ``save_every``-th
         step of the run, and the last step of the last slice (``final``), is written to
         consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
         ``torque_addr`` is the address of the user torque callback
@@ -307,7 +308,7 @@ def _runner(family: int, diag: bool = False):
         for step in range(n_steps):
             gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
             status = STATUS_OK
-            t = (step0 + step) * h  # clock at the start of the step (no accumulated rounding)
+            t = t0 + (step0 + step) * h  # the step's start (no accumulated rounding)
             j0 = 0
             if pending:
                 j0 = 1
@@ -419,12 +420,12 @@ def _batch_runner(family: int, diag: bool = False):
     one = RUNNERS[family] if not diag else DIAG_RUNNERS[family]
 
     @jit
-    def run(kinds, axes, coefs, clock, params, merge_ends, h, step0, n_steps, save_every,
+    def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
-            d, s, st = one(kinds, axes, coefs, clock, params[i], merge_ends, h, step0,
+            d, s, st = one(kinds, axes, coefs, clock, params[i], merge_ends, h, t0, step0,
                            n_steps, save_every, final, state[i], ctl[i],
                            q_out[i, saved[i]:], m_out[i, saved[i]:], torque_addr, dref[i],
                            dmax[i])
