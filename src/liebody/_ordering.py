@@ -272,7 +272,13 @@ def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
 def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray):
     samples, point = orbit_segments(moments, m0)
     V = h3_vector(_levels(pieces_of, moments))  # (6, N, 3)
-    f = np.einsum("onj,nkj->onk", V, _w(samples * samples))  # (6, N, 3): H3 at the samples
+    # H3 is homogeneous of degree 4 in m: evaluate it on m / |m0| and scale back by
+    # |m0|^2 twice, so that moments and momenta near the ends of float64 do not overflow
+    g2 = np.sum(m0 * m0, axis=-1)
+    g2 = np.where(g2 > 0.0, g2, 1.0)[None, :, None]
+    unit = samples * samples / g2[0, :, :, None]
+    f = np.einsum("onj,nkj->onk", V, _w(unit))  # (6, N, 3): H3 at the samples
+    f = (f * g2) * g2
     scores = _quadratic_range(f[..., 0], f[..., 1], f[..., 2])
     scores = np.where(point[None, :], 0.0, scores)
     k = np.argmin(scores, axis=0)
