@@ -277,7 +277,11 @@ def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray):
     g2 = np.sum(m0 * m0, axis=-1)
     g2 = np.where(g2 > 0.0, g2, 1.0)[None, :, None]
     unit = samples * samples / g2[0, :, :, None]
-    f = np.einsum("onj,nkj->onk", V, _w(unit))  # (6, N, 3): H3 at the samples
+    W = _w(unit)[None]  # (1, N, 3 samples, 3)
+    V = V[:, :, None, :]  # (6, N, 1, 3)
+    # H3 at the samples, (6, N, 3), summed in one fixed order for any N (a body's score
+    # is the same bits in an ensemble as alone)
+    f = V[..., 0] * W[..., 0] + V[..., 1] * W[..., 1] + V[..., 2] * W[..., 2]
     f = (f * g2) * g2
     scores = _quadratic_range(f[..., 0], f[..., 1], f[..., 2])
     scores = np.where(point[None, :], 0.0, scores)

@@ -85,8 +85,21 @@ class Bodies:
         return self.moments.shape[0]
 
     def take(self, idx) -> Bodies:
-        return replace(self, moments=self.moments[idx], m0=self.m0[idx],
-                       weight_arm=self.weight_arm[idx], eps=self.eps[idx])
+        out = replace(self, moments=self.moments[idx], m0=self.m0[idx],
+                      weight_arm=self.weight_arm[idx], eps=self.eps[idx])
+        memo = self.__dict__.get("_orderings")
+        if memo:  # the orbits' ordering choices, for the bodies taken
+            out.__dict__["_orderings"] = {k: (o[idx], sc[idx]) for k, (o, sc) in memo.items()}
+        return out
+
+    def orderings(self, pieces_of) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`liebody._ordering.best_orderings` of these bodies (index and score per
+        body), computed once per splitting family and kept (also by :meth:`take`): the
+        recipes read it for the keys and again for ``info``."""
+        memo = self.__dict__.setdefault("_orderings", {})
+        if pieces_of not in memo:
+            memo[pieces_of] = _ordering.best_orderings(pieces_of, self.moments, self.m0)
+        return memo[pieces_of]
 
     @property
     def symmetry(self) -> np.ndarray:
@@ -334,7 +347,7 @@ def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
     choice = np.where(use_sym, _DRIFT_SYMMETRIC,
                       _DRIFT_EXACT if b.free_flow == "exact" else _DRIFT_AXES)
     if ordering is None:
-        order, _ = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+        order, _ = b.orderings(_ordering.axis_pieces)
     else:
         order = np.full(len(b), _ordering.ORDERINGS.index(tuple(ordering)))
     order = np.where(choice == _DRIFT_AXES, order, 0)
@@ -436,7 +449,7 @@ class FreeFlowRecipe(Recipe):
 def _ordering_keys(b: Bodies, pieces_of, fixed=None):
     """Per body the symmetry class and the index of the ordering (best or ``fixed``)."""
     if fixed is None:
-        order, score = _ordering.best_orderings(pieces_of, b.moments, b.m0)
+        order, score = b.orderings(pieces_of)
     else:
         order = np.full(len(b), _ordering.ORDERINGS.index(tuple(fixed)))
         score = None
@@ -466,7 +479,7 @@ class AxisSplitting(FreeFlowRecipe):
         ordering = _ordering.ORDERINGS[order]
         info = {"axis_ordering": ordering}
         if self.ordering is None:
-            _, score = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+            _, score = b.orderings(_ordering.axis_pieces)
             info["energy_error_constant"] = _one(score)
         return axis_stages(b, ordering, sym1 - 1), info
 
@@ -496,7 +509,7 @@ class SR2Splitting(FreeFlowRecipe):
     def free(self, b, h, key):
         sym1, order = split(key, 2)
         variant = _ordering.ORDERINGS[order]
-        _, score = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+        _, score = b.orderings(_ordering.sr2_pieces)
         return sr2_stages(b, variant, sym1 - 1), {"sr2_variant": variant,
                                                   "energy_error_constant": _one(score)}
 
@@ -512,8 +525,8 @@ class BestSplitting(FreeFlowRecipe):
     """
 
     def free_keys(self, b, h):
-        axis_order, s_axis = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
-        sr2_order, s_sr2 = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+        axis_order, s_axis = b.orderings(_ordering.axis_pieces)
+        sr2_order, s_sr2 = b.orderings(_ordering.sr2_pieces)
         use_sr2 = s_sr2 <= s_axis
         return combine(use_sr2, b.symmetry + 1, np.where(use_sr2, sr2_order, axis_order))
 
@@ -521,10 +534,10 @@ class BestSplitting(FreeFlowRecipe):
         use_sr2, sym1, order = split(key, 3)
         ordering = _ordering.ORDERINGS[order]
         if use_sr2:
-            _, score = _ordering.best_orderings(_ordering.sr2_pieces, b.moments, b.m0)
+            _, score = b.orderings(_ordering.sr2_pieces)
             return sr2_stages(b, ordering, sym1 - 1), {
                 "base": "sr2", "sr2_variant": ordering, "energy_error_constant": _one(score)}
-        _, score = _ordering.best_orderings(_ordering.axis_pieces, b.moments, b.m0)
+        _, score = b.orderings(_ordering.axis_pieces)
         return axis_stages(b, ordering, sym1 - 1), {
             "base": "splitting2", "axis_ordering": ordering,
             "energy_error_constant": _one(score)}
