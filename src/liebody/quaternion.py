@@ -51,6 +51,13 @@ IDENTITY: Array = np.array([1.0, 0.0, 0.0, 0.0])
 IDENTITY.flags.writeable = False
 
 
+def _kernel_array(a: np.ndarray) -> np.ndarray:
+    """``a`` as the kernels take it: C-contiguous and writeable (a read-only array, such as
+    a Trajectory's, is copied: numba would compile a second version of every kernel for
+    read-only input)."""
+    return np.require(a, dtype=np.float64, requirements=("C", "W"))
+
+
 def _rows(*arrays: np.ndarray, dims: tuple[tuple[int, ...], ...], names: tuple[str, ...]):
     """Broadcast the leading (batch) axes and flatten them to one row axis.
 
@@ -67,7 +74,7 @@ def _rows(*arrays: np.ndarray, dims: tuple[tuple[int, ...], ...], names: tuple[s
             f"{args} must broadcast against each other over their leading (batch) axes; "
             f"they are {lead}") from None
     flat = [
-        np.ascontiguousarray(np.broadcast_to(a, batch + d)).reshape((-1, *d))
+        _kernel_array(np.broadcast_to(a, batch + d)).reshape((-1, *d))
         for a, d in zip(arrays, dims, strict=True)
     ]
     return batch, flat
@@ -196,7 +203,7 @@ def from_matrix(matrix: ArrayLike, *, tol: float = 1e-9) -> Array:
             f"max |R^T R - 1| = {np.max(orth):.3e}, det = {np.ravel(det)[:3]}..."
         )
     batch = m.shape[:-2]
-    flat = np.ascontiguousarray(m.reshape(-1, 3, 3))
+    flat = _kernel_array(m.reshape(-1, 3, 3))
     out = np.empty((flat.shape[0], 4))
     _k.from_matrix_rows(flat, out)
     return out.reshape(batch + (4,))
@@ -210,7 +217,7 @@ def exp(rotvec: ArrayLike) -> Array:
     """
     r = as_float_array("rotvec", rotvec, last_dim=3)
     batch = r.shape[:-1]
-    flat = np.ascontiguousarray(r.reshape(-1, 3))
+    flat = _kernel_array(r.reshape(-1, 3))
     out = np.empty((flat.shape[0], 4))
     _k.exp_rows(flat, out)
     return out.reshape(batch + (4,))
@@ -225,7 +232,7 @@ def log(q: ArrayLike) -> Array:
     """
     q = as_unit_quaternion("q", q)
     batch = q.shape[:-1]
-    flat = np.ascontiguousarray(q.reshape(-1, 4))
+    flat = _kernel_array(q.reshape(-1, 4))
     out = np.empty((flat.shape[0], 3))
     _k.log_rows(flat, out)
     return out.reshape(batch + (3,))
@@ -237,7 +244,7 @@ def normalize(q: ArrayLike) -> Array:
     if np.any(np.all(q == 0.0, axis=-1)):
         raise ValueError("q must be non-zero to be normalised")
     batch = q.shape[:-1]
-    flat = np.ascontiguousarray(q.reshape(-1, 4))
+    flat = _kernel_array(q.reshape(-1, 4))
     out = np.empty_like(flat)
     _k.normalize_rows(flat, out)
     return out.reshape(batch + (4,))

@@ -82,20 +82,14 @@ K_NONE, K_STEADY, K_SYMMETRIC, K_ELLIPTIC, K_SEPARATRIX = 0.0, 1.0, 2.0, 3.0, 4.
 (_IP, _I2, _IO, _SP, _EPS, _LAMG, _WP, _CL, _BP, _B2, _BO, _SO, _K2, _KC2, _K, _KC, _N,
  _RN1, _KAPPA, _GAMMA, _S0, _C0, _D0, _PIC, _QP0, _QP1, _QP2, _QP3, _NLEV, _KQ) = range(9, 39)
 HEAD_SIZE = 39
+#: zeros that fill a head's unused slots (a head is one 39-tuple whatever its kind)
+_ZEROS_25 = (0.0,) * 25
+_ZEROS_27 = (0.0,) * 27
+_ZEROS_30 = (0.0,) * 30
 _KS = HEAD_SIZE
 _KCS = HEAD_SIZE + 16
 #: Length of a plan array (float64).
 PLAN_SIZE = HEAD_SIZE + 32
-
-
-@jit
-def _head(kind, g, qw, qx, qy, qz, m1, m2, m3, a9=0.0, a10=0.0, a11=0.0, a12=0.0, a13=0.0,
-          a14=0.0, a15=0.0, a16=0.0, a17=0.0, a18=0.0, a19=0.0, a20=0.0, a21=0.0, a22=0.0,
-          a23=0.0, a24=0.0, a25=0.0, a26=0.0, a27=0.0, a28=0.0, a29=0.0, a30=0.0,
-          a31=0.0, a32=0.0, a33=0.0, a34=0.0, a35=0.0, a36=0.0, a37=0.0, a38=0.0):
-    return (kind, g, qw, qx, qy, qz, m1, m2, m3, a9, a10, a11, a12, a13, a14, a15, a16, a17,
-            a18, a19, a20, a21, a22, a23, a24, a25, a26, a27, a28, a29, a30, a31, a32, a33,
-            a34, a35, a36, a37, a38)
 
 
 @jit
@@ -118,7 +112,7 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     _, ks, kcs = landen_chain(0.0, 1.0)  # placeholder chain (no levels)
     amax = max(abs(m1), abs(m2), abs(m3))
     if amax == 0.0:
-        return _head(K_NONE, 0.0, qw, qx, qy, qz, m1, m2, m3), ks, kcs
+        return (K_NONE, 0.0, qw, qx, qy, qz, m1, m2, m3) + _ZEROS_30, ks, kcs
     g = amax * math.sqrt((m1 / amax) ** 2 + (m2 / amax) ** 2 + (m3 / amax) ** 2)
     # along a principal axis (two components exactly zero): steady rotation
     nz = 0  # (explicit count: numpy bools would OR under NUMBA_DISABLE_JIT)
@@ -129,7 +123,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     if m3 != 0.0:
         nz += 1
     if nz == 1:
-        return _head(K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3), ks, kcs
+        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3) + _ZEROS_27
+        return head, ks, kcs
     imax = max(I1, I2, I3)
     tol = SYM_RTOL * imax
     e12 = abs(I1 - I2) <= tol
@@ -137,7 +132,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     e23 = abs(I2 - I3) <= tol
     if (e12 and e13) or (e12 and e23) or (e13 and e23):
         ia = (I1 + I2 + I3) / 3.0
-        return _head(K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / ia, m2 / ia, m3 / ia), ks, kcs
+        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / ia, m2 / ia, m3 / ia) + _ZEROS_27
+        return head, ks, kcs
     if e12 or e13 or e23:
         if e12:
             ax, ip_, is_ = 2, 0.5 * (I1 + I2), I3
@@ -147,8 +143,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
             ax, ip_, is_ = 0, 0.5 * (I2 + I3), I1
         ms = component(ax, m1, m2, m3)
         rate = ms * (1.0 / is_ - 1.0 / ip_)
-        return _head(K_SYMMETRIC, g, qw, qx, qy, qz, m1, m2, m3, m1 / ip_, m2 / ip_, m3 / ip_,
-                     float(ax), rate), ks, kcs
+        return (K_SYMMETRIC, g, qw, qx, qy, qz, m1, m2, m3, m1 / ip_, m2 / ip_, m3 / ip_,
+                     float(ax), rate) + _ZEROS_25, ks, kcs
     # ---- asymmetric body: relabel I_a < I_b < I_c (index bookkeeping only) ----
     if I1 < I2:
         if I2 < I3:
@@ -179,7 +175,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     D2 = x3 * x3 * (I32 / A3) - x1 * x1 * (I21 / A1)  # Delta_2
     if D1 <= 1e-290 or D3 <= 1e-290:
         # within ~1e-145 of the smallest/largest axis: steady rotation to round-off
-        return _head(K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3), ks, kcs
+        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3) + _ZEROS_27
+        return head, ks, kcs
     if D2 <= 0.0:  # case (i), polar axis = smallest moment (and the separatrix)
         ipc, ioc, Ip, Io, Dp, Do, I2p, Io2, xp, xo = i1, i3, A1, A3, D1, D3, I21, I32, x1, x3
     else:  # case (ii), polar axis = largest moment
@@ -204,10 +201,10 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
         s0 = -x2 / b2
         c0 = abs(xo) / bo
         u0 = math.asinh(s0 / c0) if c0 > 0.0 else math.copysign(745.0, s0)
-        return _head(K_SEPARATRIX, g, qw, qx, qy, qz, m1, m2, m3,
+        return (K_SEPARATRIX, g, qw, qx, qy, qz, m1, m2, m3,
                      float(ipc), float(i2), float(ioc), sp, eps, lam * g, g / Ip, cc / lam,
                      bp, b2, bo, so, 1.0, 0.0, 1.0, 0.0, n, rn1, 0.0, 0.0, u0, 0.0, 0.0,
-                     0.0, qp[0], qp[1], qp[2], qp[3], 0.0), ks, kcs
+                     0.0, qp[0], qp[1], qp[2], qp[3], 0.0, 0.0), ks, kcs
     k2 = Dp * Io2 / (I2p * Do)
     kc2 = abs(D2) * I31 / (Do * I2p)
     ssum = k2 + kc2  # = 1 up to round-off; make the pair consistent
@@ -230,7 +227,7 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     if full:
         kq = carlson_rf(0.0, kc2, 1.0)
         pic = kq + n / 3.0 * carlson_rj(0.0, kc2, 1.0, 1.0 - n)
-    return _head(K_ELLIPTIC, g, qw, qx, qy, qz, m1, m2, m3,
+    return (K_ELLIPTIC, g, qw, qx, qy, qz, m1, m2, m3,
                  float(ipc), float(i2), float(ioc), sp, eps, lam * g, g / Ip, cc / lam,
                  bp, b2, bo, so, k2, kc2, k, kc, n, rn1, kappa, gamma, s0, c0, d0, pic,
                  qp[0], qp[1], qp[2], qp[3], float(nlev), kq), ks, kcs
