@@ -57,6 +57,10 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "Method": ("liebody._methods", "Method"),
     "Handles": ("liebody._methods", "Handles"),
     "register": ("liebody._methods", "register"),
+    "register_composition": ("liebody._methods", "register_composition"),
+    "register_splitting": ("liebody._methods", "register_splitting"),
+    "composition_report": ("liebody._methods", "composition_report"),
+    "testing": ("liebody.testing", None),
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
@@ -71,9 +75,18 @@ if TYPE_CHECKING:  # pragma: no cover
         inertia,
         lagrange_top,
         quaternion,
+        testing,
     )
     from liebody._integrate import integrate  # noqa: F401
-    from liebody._methods import Handles, Method, methods, register  # noqa: F401
+    from liebody._methods import (  # noqa: F401
+        Handles,
+        Method,
+        composition_report,
+        methods,
+        register,
+        register_composition,
+        register_splitting,
+    )
     from liebody._stepper import Stepper  # noqa: F401
     from liebody.errors import (  # noqa: F401
         CacheWarning,

@@ -35,7 +35,9 @@ PLAN_CACHE_SIZE = 128
 #: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
 _PLANS: OrderedDict = OrderedDict()
 
-__all__ = ["COMPOSITIONS", "Handles", "Method", "MethodTable", "get", "methods", "register"]
+__all__ = ["COMPOSITIONS", "CoefficientReport", "Handles", "Method", "MethodTable",
+           "composition_report", "get", "methods", "register", "register_composition",
+           "register_splitting"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -249,7 +251,7 @@ def register(method: Method, *, replace: bool = False) -> Method:
     if not isinstance(method.recipe, P.Recipe):
         raise TypeError(f"recipe must be a liebody._plan.Recipe, got "
                         f"{type(method.recipe).__name__}")
-    if isinstance(method.recipe, P.Composition):
+    if isinstance(method.recipe, P.Composition) and method.reversible:
         check_composition(method.recipe.coefficients, method.order)
     _REGISTRY[method.name] = method
     return method
@@ -326,6 +328,203 @@ for _m in (
 
 
 # ----------------------------------------------------------------------------------------
+# user-defined methods
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CoefficientReport:
+    """What the registry found in a list of composition coefficients ``g_1 .. g_s``.
+
+    Attributes
+    ----------
+    total
+        ``sum g`` (consistency: 1).
+    palindromic
+        ``g_i = g_{s+1-i}`` (a symmetric composition of a symmetric base is symmetric,
+        and then has even order).
+    power_sums
+        ``{3: sum g^3, 5: sum g^5, ...}``: a symmetric composition of a symmetric
+        second-order base has order 4 if and only if ``sum g^3 = 0``; order ``2k + 2``
+        needs ``sum g^(2j+1) = 0`` for ``j = 1 .. k`` and further conditions on nested
+        sums (Hairer, Lubich & Wanner, *Geometric Numerical Integration*, 2006, sect.
+        V.3; Yoshida, Phys. Lett. A 150 (1990) 262).
+    order_bound
+        The highest order the power sums allow (4 or more is proven only up to 4;
+        :func:`liebody.testing.observed_order` measures it).
+    """
+
+    coefficients: tuple[float, ...]
+    total: float
+    palindromic: bool
+    power_sums: dict
+    order_bound: int
+
+    def __str__(self) -> str:
+        sums = ", ".join(f"sum g^{p} = {v:.3e}" for p, v in self.power_sums.items())
+        return (f"{len(self.coefficients)} stages, sum g = {self.total!r}, "
+                f"{'palindromic' if self.palindromic else 'not palindromic'}; {sums}; "
+                f"order at most {self.order_bound}")
+
+
+def composition_report(coefficients) -> CoefficientReport:
+    """Check composition coefficients: finite, consistent (``sum g = 1``); report their
+    symmetry and power sums (:class:`CoefficientReport`). Raises ``ValueError`` when they
+    are not finite numbers or do not sum to 1."""
+    g = np.asarray(coefficients, dtype=float)
+    if g.ndim != 1 or g.size == 0 or not np.all(np.isfinite(g)):
+        raise ValueError(f"coefficients must be a non-empty list of finite numbers, got "
+                         f"{coefficients!r}")
+    total = float(math.fsum(g))
+    if abs(total - 1.0) > 1e-14:
+        raise ValueError(f"coefficients must sum to 1 (consistency: the base runs for one "
+                         f"step in all), got sum = {total!r}")
+    pal = bool(np.allclose(g, g[::-1], rtol=0, atol=1e-15))
+    sums, bound = {}, 2
+    scale = 1e-13
+    for k in range(1, 5):
+        p = 2 * k + 1
+        v = float(math.fsum(g**p))
+        sums[p] = v
+        if pal and bound == 2 * k and abs(v) <= scale * float(np.sum(np.abs(g) ** p)):
+            bound = 2 * k + 2
+    return CoefficientReport(tuple(float(v) for v in g), total, pal, sums,
+                             bound if pal else 2)
+
+
+def register_composition(name: str, coefficients, base: str = "splitting2", *,
+                         order: int | None = None, description: str = "",
+                         replace: bool = False) -> Method:
+    """Register the composition ``S(g_s h) ... S(g_1 h)`` of a registered base method.
+
+    Parameters
+    ----------
+    name
+        The new method's name (an identifier).
+    coefficients
+        The full list of fractions ``g_1 .. g_s`` of the step given to the base method,
+        in the order they run (as :data:`COMPOSITIONS` stores them), summing to 1.
+    base
+        A registered time-stepping method to compose (a symmetric second-order one for
+        the classical order theory: ``"splitting2"``, ``"sr2"``, ``"rattle"``, ...).
+    order
+        The order to declare. Default: the order the coefficients prove for a symmetric
+        second-order base (2, or 4 when ``sum g^3 = 0``); a higher order must be
+        declared, and is checked against the power conditions.
+    description, replace
+        As for :func:`register`.
+
+    Returns
+    -------
+    Method
+        The registered method; it integrates, benchmarks and checks like any other
+        (:func:`liebody.testing.observed_order` measures its order). The registry's
+        findings on the coefficients are in its ``description``
+        (:func:`composition_report`).
+
+    Examples
+    --------
+    Yoshida's triple jump (Phys. Lett. A 150 (1990) 262), order 4:
+
+    >>> import liebody
+    >>> g1 = 1 / (2 - 2 ** (1 / 3))
+    >>> m = liebody.register_composition("triple_jump", [g1, 1 - 2 * g1, g1])
+    >>> m.order
+    4
+    """
+    base_m = get(base)
+    if base_m.sampled or isinstance(base_m.recipe, P.Baseline):
+        raise ValueError(f"base {base_m.name!r} cannot be composed: compose a splitting or "
+                         f"RATTLE (a method that steps by stages)")
+    report = composition_report(coefficients)
+    bound = min(report.order_bound, 4) if base_m.order == 2 and base_m.reversible else \
+        int(base_m.order)
+    if order is None:
+        order = bound
+    elif report.palindromic and base_m.reversible:
+        check_composition(report.coefficients, order)
+    if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
+        raise ValueError(f"order must be a positive integer, got {order!r}")
+    method = Method(
+        name, P.Composition(base_m.recipe, report.coefficients), int(order), "composition",
+        base_m.symplectic, base_m.reversible and report.palindromic, base_m.keeps_casimir,
+        False, base_m.handles, f"{len(report.coefficients)} {base_m.name} steps",
+        description=(description or f"User composition of {base_m.name}.") + f" [{report}]")
+    return register(method, replace=replace)
+
+
+def register_splitting(name: str, flows, *, order: int | None = None,
+                       description: str = "", replace: bool = False) -> Method:
+    """Register a splitting made of exact sub-flows (:class:`liebody._plan.FlowSequence`).
+
+    Parameters
+    ----------
+    name
+        The new method's name (an identifier).
+    flows
+        A sequence of ``(flow, fraction)`` or ``(flow, fraction, clock)``: run the exact
+        flow ``flow`` for ``fraction * h``, then advance the clock by ``clock * h``.
+        ``flow`` is ``"T1"``, ``"T2"``, ``"T3"`` (``T_k = L_k^2 / (2 I_k)``: a rotation
+        about body axis ``k``), ``"free"`` (the exact free-body flow), ``"kick"`` (the
+        scene's torque alone) or ``"damp"`` (its dissipation alone). Consistency:
+        ``T1``, ``T2`` and ``T3`` (or ``free``) each run for one step in all, and so do
+        ``kick`` and ``damp`` where present; the clocks add up to one step.
+    order
+        The order to declare; default 2 for a palindromic sequence (a symmetric
+        method), else 1. :func:`liebody.testing.observed_order` measures it.
+    description, replace
+        As for :func:`register`.
+
+    Returns
+    -------
+    Method
+        The registered method. It integrates free bodies, and torqued (or damped)
+        scenes when it has kicks (or a dissipation step): its kicks are the exact flow
+        of a torque of the orientation and time, so it handles those torques only.
+
+    Examples
+    --------
+    The Lie–Trotter splitting ``T1(h) T2(h) T3(h)``, first order:
+
+    >>> import liebody
+    >>> m = liebody.register_splitting("lie_trotter", [("T1", 1.0), ("T2", 1.0),
+    ...                                                ("T3", 1.0, 1.0)])
+    >>> m.order, m.reversible
+    (1, False)
+    """
+    recipe = P.FlowSequence(tuple(flows))
+    parts = recipe.parts()
+    free = parts.get("free", 0.0)
+    for k in ("T1", "T2", "T3"):
+        total = parts.get(k, 0.0) + free
+        if abs(total - 1.0) > 1e-14:
+            raise ValueError(f"flows: {k} runs for {total!r} of a step in all (with 'free'); "
+                             f"each part of T must run for exactly one step (consistency)")
+    for k in ("kick", "damp"):
+        if k in parts and abs(parts[k] - 1.0) > 1e-14:
+            raise ValueError(f"flows: {k!r} runs for {parts[k]!r} of a step in all; it must "
+                             f"run for exactly one step (consistency)")
+    clock = math.fsum(c for _, _, c in recipe.flows)
+    if "kick" in parts and abs(clock - 1.0) > 1e-14:
+        raise ValueError(f"flows: the clocks add up to {clock!r} steps; a step must advance "
+                         f"the clock by exactly one step (the kicks of a time-dependent "
+                         f"torque read it)")
+    sym = recipe.palindromic
+    if order is None:
+        order = 2 if sym else 1
+    if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
+        raise ValueError(f"order must be a positive integer, got {order!r}")
+    torque = frozenset({"time", "orientation"}) if "kick" in parts else frozenset()
+    handles = Handles(torque, dissipation="damp" in parts)
+    rotations = sum(1 for n, _, _ in recipe.flows if n in ("T1", "T2", "T3"))
+    method = Method(
+        name, recipe, int(order), "splitting", "damp" not in parts, sym,
+        True, "free" in parts and rotations == 0 and "kick" not in parts, handles,
+        f"{len(recipe.flows)} sub-flows", description=description or "User splitting.")
+    return register(method, replace=replace)
+
+
+# ----------------------------------------------------------------------------------------
 # the table
 # ----------------------------------------------------------------------------------------
 
@@ -338,6 +537,11 @@ class MethodTable(tuple):
 
     def names(self) -> list[str]:
         return [m.name for m in self]
+
+    def __contains__(self, key) -> bool:
+        if isinstance(key, str):
+            return any(m.name == key for m in self)
+        return super().__contains__(key)
 
     def __getitem__(self, key):
         if isinstance(key, str):

@@ -35,7 +35,8 @@ from liebody import _ordering
 from liebody._kernels import stages as S
 
 __all__ = ["AxisSplitting", "Baseline", "BestSplitting", "Composition", "DMVFlow",
-           "ExactFlow", "Plan", "Recipe", "SR2Splitting", "Stage", "compile_plan", "compose"]
+           "ExactFlow", "FlowSequence", "Plan", "Recipe", "SR2Splitting", "Stage",
+           "compile_plan", "compose"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -612,6 +613,86 @@ class Composition(Recipe):
     def stages(self, b, h, key):
         base, info = self.base.stages(b, h, key)
         return compose(base, self.coefficients), info
+
+
+#: the sub-flows a :class:`FlowSequence` is made of
+SUB_FLOWS = ("T1", "T2", "T3", "free", "kick", "damp")
+
+
+@dataclass(frozen=True)
+class FlowSequence(Recipe):
+    """A splitting written as a sequence of exact sub-flows (a user-defined method).
+
+    ``flows`` is a tuple of ``(flow, fraction, clock)`` (``clock`` may be left out: 0):
+    run ``flow`` for ``fraction * h``, then advance the clock by ``clock * h``. The
+    flows are the exact flows of
+
+    * ``"T1"``, ``"T2"``, ``"T3"`` — ``T_k = L_k^2 / (2 I_k)`` (a rotation about body axis
+      ``k``; on a symmetry axis it recurs every step and runs in increment form);
+    * ``"free"`` — the whole free-body Hamiltonian ``T`` (the exact flow);
+    * ``"kick"`` — the scene's torque alone (``q`` fixed, ``L += tau N(t, q)``: exact for a
+      torque of the orientation and the time; identity on a free body);
+    * ``"damp"`` — the double-bracket dissipation alone (:class:`~liebody.DampedBody`).
+
+    :func:`liebody.register_splitting` checks the fractions (each part of the
+    Hamiltonian gets a whole step) and the clock (one step in all).
+    """
+
+    flows: tuple
+
+    def __post_init__(self) -> None:
+        rows = []
+        for item in self.flows:
+            if not isinstance(item, tuple | list) or len(item) not in (2, 3):
+                raise ValueError(f"each flow must be (flow, fraction) or (flow, fraction, "
+                                 f"clock), got {item!r}")
+            name, frac = item[0], float(item[1])
+            clock = float(item[2]) if len(item) == 3 else 0.0
+            if name not in SUB_FLOWS:
+                raise ValueError(f"unknown sub-flow {name!r}; known: {', '.join(SUB_FLOWS)}")
+            if not (np.isfinite(frac) and np.isfinite(clock)):
+                raise ValueError(f"fractions and clocks must be finite, got {item!r}")
+            rows.append((name, frac, clock))
+        if not rows:
+            raise ValueError("a splitting needs at least one sub-flow")
+        object.__setattr__(self, "flows", tuple(rows))
+
+    def parts(self) -> dict[str, float]:
+        """The total fraction of the step each sub-flow runs for."""
+        out: dict[str, float] = {}
+        for name, frac, _ in self.flows:
+            out[name] = out.get(name, 0.0) + frac
+        return out
+
+    @property
+    def palindromic(self) -> bool:
+        """The sequence reads the same backwards (a symmetric method, given symmetric
+        sub-flows)."""
+        seq = [(n, f) for n, f, _ in self.flows]
+        return all(a[0] == b[0] and abs(a[1] - b[1]) <= 1e-15 * max(1.0, abs(a[1]))
+                   for a, b in zip(seq, reversed(seq), strict=True))
+
+    def keys(self, b, h):
+        return b.symmetry + 1  # recurring rotations depend on the symmetry axis
+
+    def stages(self, b, h, key):
+        sym = int(key) - 1
+        inv = 1.0 / b.moments
+        torque_free = not b.capabilities.torque
+        out = []
+        for name, frac, clock in self.flows:
+            if name in ("T1", "T2", "T3"):
+                k = int(name[1]) - 1
+                out.append(rotation(k, frac, inv[:, k], sym in (k, SPHERICAL), clock))
+            elif name == "free":
+                out.append(Stage(S.EXACT, frac, clock, moments=b.moments))
+            elif name == "kick":
+                if not torque_free:  # (a free body has nothing to kick, nor a clock)
+                    out.append(Stage(S.KICK, frac, clock, torque=b.torque_code,
+                                     c=b.weight_arm))
+            else:
+                out.append(Stage(S.DAMP, frac, clock, moments=b.moments, eps=b.eps))
+        return out, {"flows": self.flows}
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,894 @@
+"""Conservation regression tests for anyone's rigid-body integrator.
+
+In the spirit of :mod:`numpy.testing`: reference problems with trusted solutions, the
+observed order of a method (liebody's, a user composition, or a plain Python step
+function), a classifier of the energy error (bounded, linear drift or random walk)
+and assertions on the invariants with messages that say which, by how much and when.
+
+* :func:`problems` / :func:`problem` — named reference problems (:class:`Problem`):
+  free bodies with the exact flow, a symmetric body in closed form, Simo & Wong's fast
+  top with a certified reference, a Lagrange top released from rest by quadrature.
+* :func:`observed_order` / :func:`assert_order` — the order, from a ladder of halved
+  steps whose asymptotic range is found automatically (:class:`Order`).
+* :func:`run_step` — a user step function ``step(q, L, h) -> (q, L)`` run as a
+  :class:`~liebody.Trajectory`, so that every diagnostic applies to it.
+* :func:`energy_drift` — bounded, drift or random walk (:class:`EnergyDrift`).
+* :func:`assert_invariants` — ``|q|``, ``|L|``, the spatial angular momentum and the
+  energy.
+
+A check of one's own integrator in a test module::
+
+    import numpy as np
+    from liebody import testing
+
+    def my_step(q, L, h):          # the integrator under test: (4,), (3,) -> (4,), (3,)
+        ...
+
+    def test_my_integrator():
+        hlw = testing.problem("hlw")
+        assert testing.observed_order(my_step, hlw).rounded == 2
+        traj = testing.run_step(my_step, hlw, dt=0.05, steps=20_000, save_every=10)
+        assert testing.energy_drift(traj).kind == "bounded"
+        testing.assert_invariants(traj, qnorm=1e-12, casimir=1e-12)
+
+Conventions as everywhere in liebody: quaternions scalar-first ``(w, x, y, z)``,
+rotating body to space; ``L`` in the body's principal frame.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+__all__ = ["EnergyDrift", "Order", "Problem", "assert_invariants", "assert_order",
+           "energy_drift", "observed_order", "problem", "problems", "run_step",
+           "state_error"]
+
+
+# ----------------------------------------------------------------------------------------
+# reference problems
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A reference problem: a scene, an initial state, a horizon and a trusted solution.
+
+    Attributes
+    ----------
+    name, title
+        Short key (``problems()[name]``) and a line of description.
+    scene
+        The scene to integrate (:class:`~liebody.FreeBody`, :class:`~liebody.HeavyTop`).
+    q0, L0
+        Initial orientation (scalar-first unit quaternion, body -> space) and body-frame
+        angular momentum.
+    t_end
+        The horizon of the order ladder of :func:`observed_order` (a few periods).
+    h_max
+        The largest step of that ladder (beyond it the methods are in their large-step
+        regime; :func:`observed_order` excludes that regime anyway).
+    provenance
+        Where the problem and its reference come from.
+    uncertainty
+        Estimated maximum error of the reference over ``[0, t_end]``, in the units of
+        :func:`state_error` (computed references: the difference of two
+        resolutions; closed forms: round-off).
+    """
+
+    name: str
+    title: str
+    scene: object
+    q0: np.ndarray
+    L0: np.ndarray
+    t_end: float
+    h_max: float
+    provenance: str
+    uncertainty: float
+    _solution: Callable = field(repr=False)
+    _spread: Callable | None = field(default=None, repr=False)
+
+    def reference(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """The reference state at time(s) ``t`` (``>= 0``).
+
+        Returns
+        -------
+        q : ndarray, shape ``t.shape + (4,)``
+        L : ndarray, shape ``t.shape + (3,)``
+        """
+        tt = np.asarray(t, dtype=float)
+        if not np.all(np.isfinite(tt)) or np.any(tt < 0):
+            raise ValueError(f"t must be finite and >= 0, got {t!r}")
+        flat = tt.reshape(-1)
+        q, L = self._solution(flat)
+        return q.reshape(tt.shape + (4,)), L.reshape(tt.shape + (3,))
+
+    def reference_spread(self, t: float) -> float | None:
+        """For a computed reference, the difference (:func:`state_error`) between its two
+        resolutions at time ``t``: the certificate of :attr:`uncertainty`. ``None`` for
+        closed forms."""
+        return None if self._spread is None else float(self._spread(float(t)))
+
+    def energy(self, q, L) -> np.ndarray:
+        """Total energy of states ``(q, L)`` in this problem's scene."""
+        q, L = np.asarray(q, dtype=float), np.asarray(L, dtype=float)
+        kinetic = 0.5 * np.sum(L * L / self.scene.moments, axis=-1)
+        return kinetic + self.scene.potential(q / np.linalg.norm(q, axis=-1, keepdims=True))
+
+    def __repr__(self) -> str:
+        return f"Problem({self.name!r}: {self.title})"
+
+
+def _exact_free(scene, q0, L0):
+    """The exact free-body flow (Jacobi elliptic functions) at given times."""
+    from liebody._kernels.exact import exact_flow_times
+
+    moments = np.ascontiguousarray(scene.moments, dtype=float)
+
+    def solution(t):
+        q, m = np.empty((t.size, 4)), np.empty((t.size, 3))
+        exact_flow_times(moments, q0.copy(), L0.copy(), np.ascontiguousarray(t), q, m)
+        return q, m
+
+    return solution
+
+
+def _symmetric_closed_form(scene, q0, L0):
+    """The free symmetric top in closed form (Hand & Finch, ch. 8, the force-free
+    symmetric top): with ``I1 = I2 = I_p``, ``T = |L|^2 / (2 I_p) + L3^2 (1/I3 - 1/I_p) / 2``;
+    the two parts commute, so the flow is a rotation about ``L`` at rate ``|L| / I_p``
+    followed by a rotation about the symmetry axis by ``L3 (1/I3 - 1/I_p) t``."""
+    from liebody import quaternion as Q
+
+    I_p, I3 = float(scene.moments[0]), float(scene.moments[2])
+    rate = L0[2] * (1.0 / I3 - 1.0 / I_p)
+
+    def solution(t):
+        tumble = Q.exp(t[:, None] * (L0 / I_p))
+        spin = Q.exp(t[:, None] * np.array([0.0, 0.0, rate]))
+        q = Q.multiply(Q.multiply(q0, tumble), spin)
+        L_space = Q.rotate(q0, L0)
+        return q, Q.rotate_inverse(q, np.broadcast_to(L_space, (t.size, 3)))
+
+    return solution
+
+
+def _certified(scene, q0, L0, method: str, steps: tuple[float, float]):
+    """A high-order method at two fine steps: the finer is the reference, their
+    difference (at every requested time) its certified uncertainty."""
+    from liebody._integrate import integrate
+
+    @lru_cache(maxsize=64)
+    def at(t: float, h: float):
+        if t == 0.0:
+            return q0.copy(), L0.copy()
+        n = max(1, math.ceil(t / h))
+        tr = integrate(scene, q0=q0, L0=L0, dt=t / n, steps=n, method=method,
+                       save_every=None)
+        return np.array(tr.q[-1]), np.array(tr.L[-1])
+
+    def solution(t):
+        q, L = np.empty((t.size, 4)), np.empty((t.size, 3))
+        for i, ti in enumerate(t):
+            q[i], L[i] = at(float(ti), steps[1])
+        return q, L
+
+    def spread(t: float) -> float:
+        qa, La = at(t, steps[0])
+        qb, Lb = at(t, steps[1])
+        return state_error(qa, La, qb, Lb, scale=float(np.linalg.norm(L0)))
+
+    return solution, spread
+
+
+def _lagrange_quadrature(scene, q0, L0):
+    """A Lagrange top (symmetric, centre of mass on the axis) released from rest at its
+    highest tilt ``theta1`` (Hand & Finch, ch. 8, the heavy symmetric top): ``theta(t)``
+    in Jacobi elliptic functions, ``thetadot`` their derivative, ``phi`` and ``psi`` by
+    quadrature of ``phidot(theta)`` and ``psidot(theta)``."""
+    from scipy import integrate as si
+    from scipy import special
+
+    from liebody import lagrange_top as lt
+
+    top = lt.LagrangeTop.from_heavy_top(scene)
+    motion = top.motion_from_state(q0, L0)
+    tp = motion.turning_points()
+    if tp.degenerate or not tp.u3 - tp.u2 >= tp.u1 - tp.u2:
+        raise ValueError("the Lagrange problem needs a nutating top (u1 > u2, u3 >= u1)")
+    b = 2.0 * top.mgl / top.I1
+    m = (tp.u1 - tp.u2) / (tp.u3 - tp.u2)
+    c = math.sqrt(b * (tp.u3 - tp.u2)) / 2.0
+
+    def theta_and_rate(t):
+        sn, cn, dn, _ = special.ellipj(c * t, m)
+        cd = cn / dn
+        u = tp.u2 + (tp.u1 - tp.u2) * cd**2
+        dudt = -2.0 * (tp.u1 - tp.u2) * (1.0 - m) * c * cd * sn / dn**2  # d cd/dx
+        theta = np.arccos(np.clip(u, -1.0, 1.0))
+        return theta, -dudt / np.sin(theta)
+
+    def rates(s):
+        th = theta_and_rate(np.atleast_1d(s))[0]
+        return float(motion.precession_rate(th)[0]), float(motion.spin_rate(th)[0])
+
+    def solution(t):
+        order = np.argsort(t)
+        phi, psi = np.empty(t.size), np.empty(t.size)
+        last, acc_phi, acc_psi = 0.0, 0.0, 0.0
+        for i in order:
+            ti = float(t[i])
+            if ti > last:
+                kw = dict(epsabs=1e-14, epsrel=1e-13, limit=400)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", si.IntegrationWarning)
+                    acc_phi += si.quad(lambda s: rates(s)[0], last, ti, **kw)[0]
+                    acc_psi += si.quad(lambda s: rates(s)[1], last, ti, **kw)[0]
+                last = ti
+            phi[i], psi[i] = acc_phi, acc_psi
+        theta, thetadot = theta_and_rate(t)
+        phidot = np.atleast_1d(motion.precession_rate(theta))
+        psidot = np.atleast_1d(motion.spin_rate(theta))
+        angles = np.stack([phi, theta, psi], axis=-1)
+        angle_rates = np.stack([phidot, thetadot, psidot], axis=-1)
+        return top.state_from_euler(angles, angle_rates)
+
+    return solution
+
+
+def _build_problems() -> dict[str, Problem]:
+    import liebody
+    from liebody import euler
+    from liebody import quaternion as Q
+
+    out: dict[str, Problem] = {}
+    ident = np.array([1.0, 0.0, 0.0, 0.0])
+
+    hlw = liebody.FreeBody(liebody.RigidBody([2.0, 1.0, 2.0 / 3.0], check_triangle=False))
+    L0 = np.array([math.cos(1.1), 0.0, math.sin(1.1)])
+    out["hlw"] = Problem(
+        "hlw", "free body I = (2, 1, 2/3), L0 = (cos 1.1, 0, sin 1.1): exact flow", hlw,
+        ident, L0, 10.0, 0.5,
+        "Hairer, Lubich & Wanner, Geometric Numerical Integration (2006), sect. VII.5; "
+        "reference: the exact flow in Jacobi elliptic functions (Celledoni, Fasso, "
+        "Safstrom & Zanna 2008)", 1e-13, _exact_free(hlw, ident, L0))
+
+    asym = liebody.FreeBody(liebody.RigidBody([0.6, 0.8, 1.0]))
+    L0 = np.array([1.8, 0.4, -0.9])
+    q0 = Q.normalize([0.9, 0.1, -0.3, 0.2])
+    out["asym"] = Problem(
+        "asym", "physical asymmetric body I = (0.6, 0.8, 1.0), a tumbling orbit: exact flow",
+        asym, q0, L0, 10.0, 0.25,
+        "a body that satisfies the triangle inequality; reference: the exact flow in "
+        "Jacobi elliptic functions (Celledoni, Fasso, Safstrom & Zanna 2008)", 1e-13,
+        _exact_free(asym, q0, L0))
+
+    sym = liebody.FreeBody(liebody.RigidBody([1.0, 1.0, 1.6]))
+    L0 = np.array([0.7, -0.4, 1.2])
+    q0 = Q.normalize([0.8, -0.2, 0.4, 0.1])
+    out["symmetric"] = Problem(
+        "symmetric", "free symmetric top I = (1, 1, 1.6): closed form", sym, q0, L0, 10.0,
+        0.5, "Hand & Finch, Analytical Mechanics (1998), ch. 8, the force-free symmetric "
+        "top: precession about L at |L|/I1 and spin about the axis at L3 (1/I3 - 1/I1)",
+        1e-13, _symmetric_closed_form(sym, q0, L0))
+
+    top = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass=20.0, cm=[0.0, 0.0, 1.0],
+                           g=1.0)
+    q0, L0 = Q.exp([0.05, 0.0, 0.0]), np.array([0.0, 0.0, 50.0])
+    solution, spread = _certified(top, q0, L0, "splitting8", (1e-3, 5e-4))
+    out["top"] = Problem(
+        "top", "Simo & Wong's fast top: I = (5, 5, 1), M g l = 20, spin 50", top, q0, L0,
+        10.0, 0.02, "Simo & Wong, Int. J. Numer. Meth. Eng. 31 (1991) 19; reference: "
+        "splitting8 at h = 5e-4, certified by its difference to h = 1e-3 (6e-14 at t = 10; "
+        "the uncertainty stated is 1e-12)", 1e-12, solution, spread)
+
+    lag = liebody.HeavyTop(liebody.RigidBody([1.0, 1.0, 0.5]), mass=1.0, cm=[0.0, 0.0, 1.0],
+                           g=9.81)
+    q0 = euler.to_quaternion([0.0, 0.6, 0.0])
+    L0 = np.array([0.0, 0.0, 0.5 * 12.0])  # released from rest spinning at 12 rad/s
+    out["lagrange"] = Problem(
+        "lagrange", "Lagrange top released from rest at theta = 0.6, spin 12 rad/s: cusps",
+        lag, q0, L0, 3.0, 0.05,
+        "Hand & Finch, Analytical Mechanics (1998), ch. 8, the heavy symmetric top: "
+        "theta(t) in Jacobi elliptic functions, phi and psi by adaptive quadrature "
+        "(scipy.integrate.quad at 1e-14)", 1e-11, _lagrange_quadrature(lag, q0, L0))
+    return out
+
+
+_PROBLEMS: dict[str, Problem] | None = None
+
+
+def problems() -> dict[str, Problem]:
+    """The named reference problems (built on first use; a fresh dict each call).
+
+    ========== ===========================================================================
+    name       problem, reference
+    ========== ===========================================================================
+    hlw        free body ``I = (2, 1, 2/3)`` of Hairer, Lubich & Wanner; exact flow
+    asym       a physical asymmetric free body ``I = (0.6, 0.8, 1.0)``; exact flow
+    symmetric  a free symmetric top ``I = (1, 1, 1.6)``; closed form (Hand & Finch, ch. 8)
+    top        Simo & Wong's fast heavy top; ``splitting8`` at two fine steps (certified)
+    lagrange   a Lagrange top released from rest; elliptic functions and quadrature
+    ========== ===========================================================================
+    """
+    global _PROBLEMS
+    if _PROBLEMS is None:
+        _PROBLEMS = _build_problems()
+    return dict(_PROBLEMS)
+
+
+def _lookup(problem) -> Problem:
+    if isinstance(problem, str):
+        return globals()["problem"](problem)
+    if not isinstance(problem, Problem):
+        raise TypeError(f"problem must be a liebody.testing.Problem or its name, got "
+                        f"{type(problem).__name__}")
+    return problem
+
+
+def problem(name: str) -> Problem:
+    """One reference problem by name (see :func:`problems`)."""
+    table = problems()
+    if not isinstance(name, str) or name not in table:
+        raise ValueError(f"unknown problem {name!r}; known problems: {', '.join(table)}")
+    return table[name]
+
+
+# ----------------------------------------------------------------------------------------
+# errors, user steps
+# ----------------------------------------------------------------------------------------
+
+
+def state_error(q, L, q_ref, L_ref, *, scale: float | None = None) -> float:
+    """Error of a state against a reference: the larger of the orientation error
+    ``min(|q - q_ref|, |q + q_ref|)`` (max norm, either sign of the quaternion) and
+    ``|L - L_ref| / scale`` (max norm; ``scale`` defaults to ``|L_ref|``). Infinite when
+    the state is not finite."""
+    q, L = np.asarray(q, dtype=float), np.asarray(L, dtype=float)
+    q_ref, L_ref = np.asarray(q_ref, dtype=float), np.asarray(L_ref, dtype=float)
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(L))):
+        return math.inf
+    s = float(np.linalg.norm(L_ref)) if scale is None else float(scale)
+    dq = min(float(np.abs(q - q_ref).max()), float(np.abs(q + q_ref).max()))
+    return max(dq, float(np.abs(L - L_ref).max()) / (s if s > 0 else 1.0))
+
+
+def _is_step_function(method) -> bool:
+    from liebody._methods import Method
+
+    return callable(method) and not isinstance(method, str | Method)
+
+
+def _user_steps(step, q, L, h: float, n: int, every: int | None = None):
+    """``n`` calls of ``step``; the states every ``every`` steps (and the last)."""
+    q, L = np.array(q, dtype=float), np.array(L, dtype=float)
+    saved = [(q.copy(), L.copy())] if every else None
+    for k in range(1, n + 1):
+        out = step(q, L, h)
+        try:
+            q, L = out
+        except (TypeError, ValueError):
+            raise TypeError("a step function must return (q, L), got "
+                            f"{type(out).__name__}") from None
+        q, L = np.asarray(q, dtype=float), np.asarray(L, dtype=float)
+        if q.shape != (4,) or L.shape != (3,):
+            raise ValueError(f"a step function must return q of shape (4,) and L of shape "
+                             f"(3,), got {q.shape} and {L.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(L))):
+            return (q, L), saved, k
+        if every and (k % every == 0 or k == n):
+            saved.append((q.copy(), L.copy()))
+    return (q, L), saved, None
+
+
+def run_step(step: Callable, problem: Problem, *, dt: float, steps: int,
+             save_every: int = 1):
+    """Run a user step function on a problem and return a :class:`~liebody.Trajectory`.
+
+    Parameters
+    ----------
+    step
+        ``step(q, L, h) -> (q, L)``: one step of size ``h`` of the user's integrator for
+        ``problem.scene`` (``q`` scalar-first, body -> space; ``L`` body frame), plain
+        Python or a numba-compiled function.
+    problem
+        A :class:`Problem` (its scene and initial state are used).
+    dt, steps
+        Step size (> 0) and number of steps (>= 1).
+    save_every
+        Keep every ``save_every``-th state (and the last).
+
+    Returns
+    -------
+    Trajectory
+        With ``method=None``; a step that produces a non-finite state ends the run
+        (``status="failed"``, ``failed_at`` its time), as in :func:`liebody.integrate`.
+    """
+    from liebody.trajectory import Trajectory
+
+    dt = _positive("dt", dt)
+    steps = _count("steps", steps)
+    save_every = _count("save_every", save_every)
+    _, saved, bad = _user_steps(step, problem.q0, problem.L0, dt, steps, save_every)
+    idx = [0] + [k for k in range(1, steps + 1) if k % save_every == 0 or k == steps]
+    idx = idx[:len(saved)]
+    t = np.array(idx, dtype=float) * dt
+    q = np.array([s[0] for s in saved])
+    L = np.array([s[1] for s in saved])
+    failed = None if bad is None else bad * dt
+    return Trajectory(t, q, L, problem.scene, None, dt, failed_at=failed,
+                      info={"step": getattr(step, "__name__", repr(step))},
+                      status="complete" if bad is None else "failed")
+
+
+def _positive(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return float(value)
+
+
+def _count(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    if value < 1:
+        raise ValueError(f"{name} must be >= 1, got {value!r}")
+    return int(value)
+
+
+# ----------------------------------------------------------------------------------------
+# observed order
+# ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Order:
+    """An observed order and the asymptotic range it was read from.
+
+    Attributes
+    ----------
+    order
+        Least-squares slope of ``log(error)`` against ``log(h)`` over the range used.
+    rounded
+        ``round(order)``.
+    steps
+        ``(h_largest, h_smallest)`` of the range used.
+    hs, errors
+        The whole ladder (``inf`` where a method failed or refused the step).
+    slopes
+        Local slopes between consecutive steps (NaN outside ``(floor, ceiling)``).
+    used
+        Indices into ``hs`` of the range used.
+    reliable
+        At least three steps agree (two or more local slopes within ``settle``).
+    """
+
+    order: float
+    steps: tuple[float, float]
+    hs: np.ndarray
+    errors: np.ndarray
+    slopes: np.ndarray
+    used: tuple[int, ...]
+    reliable: bool
+
+    @property
+    def rounded(self) -> int:
+        return round(self.order)
+
+    def __repr__(self) -> str:
+        pairs = ", ".join(f"{h:.3g}: {e:.3g}" for h, e in zip(self.hs, self.errors, strict=True))
+        return (f"Order({self.order:.3f} from h = {self.steps[0]:.3g} to {self.steps[1]:.3g}"
+                f"{'' if self.reliable else ', UNRELIABLE'}; errors {{{pairs}}})")
+
+
+def observed_order(method, problem: Problem | str, *, t_end: float | None = None,
+                   h_max: float | None = None, floor: float | None = None,
+                   ceiling: float = 1e-2, settle: float = 0.1, levels: int = 16,
+                   max_steps: int | None = None) -> Order:
+    """The observed order of a method on a reference problem.
+
+    The error at ``t_end`` (:func:`state_error` against ``problem.reference``) is
+    measured on a ladder of halved steps ``h = h_max / 2^k``. The asymptotic range is
+    found, not assumed: errors above ``ceiling`` (the large-step regime, blow-ups and
+    refusals) and below ``floor`` (round-off) are dropped, and the order is the
+    least-squares slope over the longest run of consecutive local slopes that agree
+    within ``2 * settle`` (ties: the smaller steps). The ladder stops at the floor, at
+    ``max_steps``, or once the last three local slopes agree. Any order works (1, 3,
+    5, ... 10): no table of step sizes per order.
+
+    Parameters
+    ----------
+    method
+        A registered method name, a :class:`~liebody.Method` (e.g. one returned by
+        :func:`liebody.register_composition`), or a user step function
+        ``step(q, L, h) -> (q, L)`` for ``problem.scene`` (plain Python or numba).
+    problem
+        A :class:`Problem` or its name.
+    t_end, h_max
+        Horizon and largest step; default the problem's.
+    floor
+        Errors below it count as round-off; default ``max(1e-11, 10 * uncertainty)``
+        of the problem's reference.
+    ceiling, settle, levels
+        Largest error counted as asymptotic; agreement of local slopes; most halvings.
+    max_steps
+        Longest run of the ladder: default ``2**22`` for liebody methods and ``2**17``
+        for user step functions (Python loops).
+
+    Returns
+    -------
+    Order
+        ``.order``, ``.rounded`` and the range used. ``ValueError`` when fewer than two
+        errors fall between ``floor`` and ``ceiling``.
+    """
+    prob = _lookup(problem)
+    T = prob.t_end if t_end is None else _positive("t_end", t_end)
+    h0 = prob.h_max if h_max is None else _positive("h_max", h_max)
+    lo = max(1e-11, 10.0 * prob.uncertainty) if floor is None else _positive("floor", floor)
+    user = _is_step_function(method)
+    if not user:
+        from liebody._methods import check_supports, get
+
+        m = get(method)
+        check_supports(m, prob.scene)
+        if m.sampled:
+            raise ValueError(f"method {m.name!r} evaluates a closed form at the output "
+                             f"times: it has no step and no order")
+    cap = (2**17 if user else 2**22) if max_steps is None else _count("max_steps", max_steps)
+    q_ref, L_ref = prob.reference(T)
+    scale = float(np.linalg.norm(prob.L0)) or 1.0
+
+    def error(n: int) -> float:
+        h = T / n
+        if user:
+            (q, L), _, bad = _user_steps(method, prob.q0, prob.L0, h, n)
+            return math.inf if bad is not None else state_error(q, L, q_ref, L_ref,
+                                                                 scale=scale)
+        from liebody._integrate import integrate
+        from liebody.errors import ConvergenceError
+
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                tr = integrate(prob.scene, q0=prob.q0, L0=prob.L0, dt=h, steps=n, method=m,
+                               save_every=None)
+        except (ValueError, ConvergenceError):
+            return math.inf
+        if tr.status != "complete":
+            return math.inf
+        return state_error(tr.q[-1], tr.L[-1], q_ref, L_ref, scale=scale)
+
+    n0 = max(1, math.ceil(T / h0))
+    hs: list[float] = []
+    errs: list[float] = []
+    for k in range(levels):
+        n = n0 * 2**k
+        if n > cap:
+            break
+        e = error(n)
+        hs.append(T / n)
+        errs.append(e if math.isfinite(e) else math.inf)
+        if e <= lo:
+            break
+        slopes = _slopes(np.array(hs), np.array(errs), lo, ceiling)
+        tail = slopes[-3:]
+        if len(tail) == 3 and np.all(np.isfinite(tail)) and np.ptp(tail) <= 2 * settle:
+            break
+    H, E = np.array(hs), np.array(errs)
+    slopes = _slopes(H, E, lo, ceiling)
+    run = _longest_agreeing_run(slopes, settle)
+    if run is None:
+        finite = E[np.isfinite(E)]
+        if finite.size and finite.max() <= lo:
+            raise ValueError(f"no asymptotic range: the error is at round-off ({finite.max():.3g}"
+                             f" <= floor {lo:g}) already at h = {H[0]:.3g}; the method is "
+                             f"exact on this problem (or start from a larger h_max)")
+        table = ", ".join(f"{h:.3g}: {e:.3g}" for h, e in zip(H, E, strict=True))
+        raise ValueError(f"no asymptotic range: fewer than two errors between floor "
+                         f"{lo:g} and ceiling {ceiling:g} (h: error = {table}); widen "
+                         f"them or change h_max")
+    i, j = run  # slopes i..j-1 agree: points i..j
+    used = tuple(range(i, j + 1))
+    x, y = np.log(H[list(used)]), np.log(E[list(used)])
+    order = float(np.polyfit(x, y, 1)[0])
+    return Order(order, (float(H[i]), float(H[j])), H, E, slopes, used, j - i >= 2)
+
+
+def _slopes(H: np.ndarray, E: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
+    """Local slopes between consecutive ladder points, NaN where either error is outside
+    ``(floor, ceiling)``."""
+    inside = (E > floor) & (E < ceiling)
+    out = np.full(max(len(H) - 1, 0), np.nan)
+    for k in range(len(H) - 1):
+        if inside[k] and inside[k + 1]:
+            out[k] = math.log(E[k] / E[k + 1]) / math.log(H[k] / H[k + 1])
+    return out
+
+
+def _longest_agreeing_run(slopes: np.ndarray, settle: float):
+    """``(i, j)``: the longest run ``slopes[i:j]`` of finite slopes whose spread is at
+    most ``2 settle`` (ties: the last); ``None`` if there is no finite slope."""
+    best = None
+    n = len(slopes)
+    for i in range(n):
+        if not np.isfinite(slopes[i]):
+            continue
+        j = i + 1
+        while j < n and np.isfinite(slopes[j]) and np.ptp(slopes[i:j + 1]) <= 2 * settle:
+            j += 1
+        if best is None or j - i >= best[1] - best[0]:
+            best = (i, j)
+    return best
+
+
+def assert_order(method, problem: Problem | str, expected: int, *, tol: float = 0.2,
+                 **kwargs) -> Order:
+    """Assert that :func:`observed_order` is ``expected`` within ``tol`` and that the
+    range it was read from is reliable; returns the :class:`Order`."""
+    found = observed_order(method, problem, **kwargs)
+    if not (found.reliable and abs(found.order - expected) <= tol):
+        raise AssertionError(f"observed order {found.order:.3f}, expected {expected} "
+                             f"(tolerance {tol}): {found!r}")
+    return found
+
+
+# ----------------------------------------------------------------------------------------
+# energy drift
+# ----------------------------------------------------------------------------------------
+
+#: the verdicts, in the order of the terms c0, c1 tau, c2 tau^2 of the structure function
+KINDS = ("bounded", "random walk", "drift")
+#: a drift needs a linear trend this many standard errors away from zero
+DRIFT_SIGNIFICANCE = 4.0
+#: block means the growth exponent is measured on
+BLOCKS = 256
+
+
+@dataclass(frozen=True)
+class EnergyDrift:
+    """How the relative energy error ``e(t) = (E(t) - E(0)) / |E(0)|`` grows.
+
+    Attributes
+    ----------
+    kind
+        ``"bounded"`` (``e`` oscillates and does not grow: a symplectic method's
+        modified energy), ``"random walk"`` (grows like ``sqrt(t)``: round-off
+        accumulating; Brouwer's law) or ``"drift"`` (grows like ``t``: a method that is
+        not symplectic, or a biased step).
+    exponent
+        The growth exponent ``H`` of ``S(tau) ~ tau^H`` at the largest lag ``T/3``: 0 for
+        bounded, 1/2 for a random walk, 1 for a drift. ``S(tau)`` is the structure
+        function ``rms(e(s + tau) - e(s))`` (averaged over all start times ``s``) of 256
+        block means of ``e``, so that an oscillation much faster than ``T/256``
+        averages out; ``S^2`` is fitted (non-negative least squares, relative
+        residuals) by ``c0 + c1 tau + c2 tau^2``: a bounded part, a random walk and a
+        drift. The verdict is the term that dominates at ``tau = T/3``; a drift also
+        needs a significant linear trend (``|rate| > 4 rate_stderr``), otherwise the
+        growth is a slow oscillation and the verdict the larger of the other two.
+    confidence
+        The share of ``S^2(T/3)`` that the winning term explains (between 1/3 and 1):
+        near 1 a clear verdict, near 1/2 a mixture (e.g. a slow drift under a large
+        bounded oscillation).
+    rate, rate_stderr
+        Least-squares slope of ``e`` against ``t`` (relative energy per unit time) and
+        its standard error from 20 block means.
+    max_error
+        ``max |e|``.
+    """
+
+    kind: str
+    exponent: float
+    confidence: float
+    rate: float
+    rate_stderr: float
+    max_error: float
+
+    def __str__(self) -> str:
+        return (f"{self.kind} (exponent {self.exponent:.2f}, confidence "
+                f"{self.confidence:.2f}; rate {self.rate:.3g} +- {self.rate_stderr:.2g} "
+                f"per unit time; max |dE/E| {self.max_error:.3g})")
+
+
+def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> EnergyDrift:
+    """Tell a bounded energy error from a linear drift and from a random walk.
+
+    Parameters
+    ----------
+    traj
+        A :class:`~liebody.Trajectory` of one body (its ``t`` and ``energy``), or
+        ``None`` and ``t``, ``energy`` given: sample times (increasing; resampled to a
+        uniform grid if they are not uniform) and energies.
+    relative
+        Divide by ``|E(0)|`` (when non-zero).
+
+    Returns
+    -------
+    EnergyDrift
+        The verdict, the growth exponent, a confidence measure and the fitted linear
+        rate. Needs at least 64 samples over a horizon of at least a thousand periods
+        of the error's oscillation (the block means must average it out; over less
+        than its period a slow oscillation cannot be told from a drift).
+    """
+    if traj is not None:
+        if t is not None or energy is not None:
+            raise ValueError("give either traj or t and energy, not both")
+        if getattr(traj, "n_bodies", None):
+            raise ValueError("energy_drift takes one body's trajectory; index the "
+                             "ensemble's bodies one at a time")
+        t, energy = traj.t, traj.energy
+    elif t is None or energy is None:
+        raise ValueError("give a trajectory, or both t and energy")
+    t = np.asarray(t, dtype=float)
+    E = np.asarray(energy, dtype=float)
+    if t.ndim != 1 or E.shape != t.shape:
+        raise ValueError(f"t and energy must be 1-d of one length, got {t.shape} and "
+                         f"{E.shape}")
+    if t.size < 64:
+        raise ValueError(f"energy_drift needs at least 64 samples, got {t.size}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(E))):
+        raise ValueError("t and energy must be finite (a trajectory that failed: use its "
+                         "samples before failed_at)")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        raise ValueError("t must be strictly increasing")
+    if np.ptp(dt) > 1e-6 * dt.mean():
+        grid = np.linspace(t[0], t[-1], t.size)
+        E, t = np.interp(grid, t, E), grid
+    e = E - E[0]
+    if relative and E[0] != 0.0:
+        e = e / abs(E[0])
+    n = t.size
+    max_err = float(np.abs(e).max())
+    # rate: least squares on the samples, standard error from block means
+    rate = float(np.polyfit(t - t[0], e, 1)[0])
+    blocks = 20
+    bt = np.array([b.mean() for b in np.array_split(t - t[0], blocks)])
+    be = np.array([b.mean() for b in np.array_split(e, blocks)])
+    _, res, *_ = np.polyfit(bt, be, 1, full=True)
+    sxx = float(np.sum((bt - bt.mean()) ** 2))
+    resid = float(res[0]) if len(res) else 0.0
+    rate_se = math.sqrt(resid / (blocks - 2) / sxx) if sxx > 0 else math.inf
+    # growth exponent: structure function of the block means (blocks average the
+    # oscillation of a bounded error out; a drift and a random walk survive them)
+    m = BLOCKS if n >= 2 * BLOCKS else n
+    means = np.array([b.mean() for b in np.array_split(e, m)])
+    lags = np.unique(np.geomspace(1, max(2, m // 3), 12).astype(int))
+    amp = np.array([math.sqrt(float(np.mean((means[k:] - means[:-k]) ** 2))) for k in lags])
+    if max_err == 0.0 or np.all(amp == 0.0):
+        return EnergyDrift("bounded", 0.0, 1.0, rate, rate_se, max_err)
+    # S(tau)^2 = c0 + c1 tau + c2 tau^2, c >= 0: a bounded part, a random walk, a drift;
+    # the verdict is the part that dominates at the largest lag
+    from scipy.optimize import nnls
+
+    x = lags / lags[-1]
+    ok = amp > 0
+    A = np.stack([np.ones_like(x), x, x * x], axis=1)[ok] / (amp[ok, None] ** 2)
+    c, _ = nnls(A, np.ones(int(ok.sum())))
+    parts = c  # at the largest lag x = 1
+    total = float(parts.sum())
+    if total <= 0.0:
+        return EnergyDrift("bounded", 0.0, 1.0, rate, rate_se, max_err)
+    exponent = float((parts[1] + 2.0 * parts[2]) / (2.0 * total))
+    k = int(np.argmax(parts))
+    if k == 2 and not abs(rate) > DRIFT_SIGNIFICANCE * rate_se:
+        k = int(np.argmax(parts[:2]))  # no significant linear trend: a slow oscillation
+    return EnergyDrift(KINDS[k], exponent, float(parts[k] / total), rate, rate_se, max_err)
+
+
+# ----------------------------------------------------------------------------------------
+# invariants
+# ----------------------------------------------------------------------------------------
+
+
+def _worst(dev: np.ndarray, t: np.ndarray) -> tuple[float, float, str]:
+    """Largest deviation, its time, and the body it belongs to (ensembles)."""
+    flat = np.nan_to_num(dev, nan=-np.inf)
+    k = np.unravel_index(int(np.argmax(flat)), dev.shape)
+    where = f" of body {k[0]}" if dev.ndim == 2 else ""
+    return float(dev[k]), float(t[k[-1]]), where
+
+
+def assert_invariants(traj, *, qnorm: float | None = 1e-10, casimir="auto",
+                      spatial_L="auto", energy="auto") -> None:
+    """Assert that a trajectory keeps the invariants of its scene.
+
+    Each check compares the largest deviation over the samples with a tolerance;
+    ``None`` skips a check. A failure raises one ``AssertionError`` listing every
+    broken invariant, by how much, at what time (and for which body of an ensemble).
+
+    Parameters
+    ----------
+    traj
+        A :class:`~liebody.Trajectory` (one body or an ensemble), e.g. from
+        :func:`liebody.integrate` or :func:`run_step`.
+    qnorm
+        Bound on ``| |q| - 1 |``.
+    casimir
+        Bound on the relative change of ``|L|``. ``"auto"``: ``1e-10`` where the scene
+        keeps ``|L|`` (no torque: a free or an internally damped body), else skipped.
+    spatial_L
+        Bound on the change of the spatial angular momentum ``R(q) L`` relative to
+        ``|L(0)|``. ``"auto"``: all three components (``1e-10``) for a torque-free,
+        undamped scene; the vertical component for a :class:`~liebody.HeavyTop`
+        (gravity exerts no torque about the vertical); else skipped.
+    energy
+        A number: bound on the relative energy error ``|E - E(0)| / |E(0)|``.
+        ``"bounded"``: :func:`energy_drift` must not find a drift. ``"auto"``:
+        ``"bounded"`` for conservative scenes, skipped for the others.
+    """
+    from liebody.scenes import HeavyTop
+
+    caps = traj.scene.capabilities
+    t = np.asarray(traj.t)
+    q, L = np.asarray(traj.q), np.asarray(traj.L)
+    fails = []
+    if len(t) == 0:
+        raise ValueError("the trajectory has no samples")
+
+    if qnorm is not None:
+        dev = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
+        worst, when, who = _worst(dev, t)
+        if not worst <= qnorm:
+            fails.append(f"| |q| - 1 | reached {worst:.3g} at t = {when:.6g}{who} "
+                         f"(tolerance {qnorm:.3g})")
+
+    keeps_L = not caps.torque
+    if casimir == "auto":
+        casimir = 1e-10 if keeps_L else None
+    if casimir is not None:
+        norm = np.linalg.norm(L, axis=-1)
+        dev = np.abs(norm - norm[..., :1]) / np.where(norm[..., :1] > 0, norm[..., :1], 1.0)
+        worst, when, who = _worst(dev, t)
+        if not worst <= casimir:
+            fails.append(f"|L| changed by {worst:.3g} (relative) at t = {when:.6g}{who} "
+                         f"(tolerance {casimir:.3g})")
+
+    components = None
+    if spatial_L == "auto":
+        if caps.free:
+            components, spatial_L = [0, 1, 2], 1e-10
+        elif isinstance(traj.scene, HeavyTop):
+            components, spatial_L = [2], 1e-10
+        else:
+            spatial_L = None
+    elif spatial_L is not None:
+        components = [0, 1, 2]
+    if spatial_L is not None:
+        Ls = np.asarray(traj.L_space)[..., components]
+        scale = np.linalg.norm(L[..., :1, :], axis=-1)
+        dev = np.abs(Ls - Ls[..., :1, :]).max(axis=-1) / np.where(scale > 0, scale, 1.0)
+        worst, when, who = _worst(dev, t)
+        if not worst <= spatial_L:
+            name = "L_space" if len(components) == 3 else "the vertical L_space_z"
+            fails.append(f"{name} changed by {worst:.3g} (relative to |L(0)|) at "
+                         f"t = {when:.6g}{who} (tolerance {spatial_L:.3g})")
+
+    if energy == "auto":
+        energy = "bounded" if caps.conservative and not caps.dissipative else None
+    if energy is not None:
+        E = np.asarray(traj.energy)
+        if energy == "bounded":
+            for b, Eb in enumerate(E.reshape(-1, E.shape[-1])):
+                if Eb.size < 64:
+                    raise ValueError("energy='bounded' needs at least 64 samples; give a "
+                                     "tolerance instead")
+                verdict = energy_drift(t=t, energy=Eb)
+                if verdict.kind == "drift":
+                    who = f" of body {b}" if E.ndim == 2 else ""
+                    fails.append(f"the energy{who} drifts: {verdict}")
+        else:
+            tol = _positive("energy", energy)
+            E0 = E[..., :1]
+            dev = np.abs(E - E0) / np.where(E0 != 0, np.abs(E0), 1.0)
+            worst, when, who = _worst(dev, t)
+            if not worst <= tol:
+                fails.append(f"the energy changed by {worst:.3g} (relative) at "
+                             f"t = {when:.6g}{who} (tolerance {tol:.3g})")
+    if fails:
+        raise AssertionError("invariants not kept:\n  " + "\n  ".join(fails))

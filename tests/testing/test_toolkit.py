@@ -1,0 +1,296 @@
+"""liebody.testing on integrators that are not liebody's, and on liebody's own.
+
+The verdicts must come out right for steps written here in plain Python (RK4 and
+explicit Euler on the quaternion and Euler's equations: orders 4 and 1, energy drift),
+for a deliberately biased step (drift), for liebody's geometric methods (bounded) and
+for synthetic errors whose growth law is known by construction.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import liebody
+from liebody import quaternion as Q
+from liebody import testing
+
+
+def _rhs(moments):
+    """Euler's equations and q' = q (0, omega) / 2 for a free body (Hand & Finch, ch. 8)."""
+
+    def f(q, L):
+        w = L / moments
+        dq = 0.5 * np.array([
+            -q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
+            q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
+            q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
+            q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
+        ])
+        return dq, np.cross(L, w)
+
+    return f
+
+
+def python_rk4(moments):
+    f = _rhs(np.asarray(moments, dtype=float))
+
+    def step(q, L, h):
+        k1 = f(q, L)
+        k2 = f(q + 0.5 * h * k1[0], L + 0.5 * h * k1[1])
+        k3 = f(q + 0.5 * h * k2[0], L + 0.5 * h * k2[1])
+        k4 = f(q + h * k3[0], L + h * k3[1])
+        return (q + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]),
+                L + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]))
+
+    return step
+
+
+def python_euler(moments):
+    f = _rhs(np.asarray(moments, dtype=float))
+
+    def step(q, L, h):
+        dq, dL = f(q, L)
+        return q + h * dq, L + h * dL
+
+    return step
+
+
+def test_problems_are_consistent():
+    table = testing.problems()
+    assert set(table) == {"hlw", "asym", "symmetric", "top", "lagrange"}
+    for p in table.values():
+        q, L = p.reference(0.0)
+        np.testing.assert_allclose(q, p.q0, atol=1e-15)
+        np.testing.assert_allclose(L, p.L0, atol=1e-15)
+        q, L = p.reference(np.linspace(0, p.t_end, 5))
+        assert q.shape == (5, 4) and L.shape == (5, 3)
+        np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-14)
+        E = p.energy(q, L)
+        np.testing.assert_allclose(E, E[0], rtol=1e-11)
+        assert p.provenance and p.uncertainty > 0
+    with pytest.raises(ValueError, match="unknown problem 'nope'"):
+        testing.problem("nope")
+    with pytest.raises(ValueError, match="t must be finite and >= 0"):
+        table["hlw"].reference(-1.0)
+
+
+@pytest.mark.parametrize("name", ["hlw", "asym", "symmetric", "lagrange", "top"])
+def test_references_agree_with_scipy_dop853(name):
+    """Every reference against an independent solution: scipy's DOP853 at rtol 1e-13 on
+    Euler's equations (plus gravity) and the quaternion kinematics."""
+    p = testing.problem(name)
+    scene = p.scene
+    I = scene.moments
+    weight = np.zeros(3)
+    if isinstance(scene, liebody.HeavyTop):
+        weight = scene.mass * scene.g * np.asarray(scene.cm, dtype=float)
+
+    def f(t, y):
+        q, L = y[:4], y[4:]
+        w = L / I
+        dq = 0.5 * Q.multiply(q, np.r_[0.0, w])
+        gamma = Q.rotate_inverse(q / np.linalg.norm(q), [0.0, 0.0, 1.0])
+        return np.r_[dq, np.cross(L, w) + np.cross(gamma, weight)]
+
+    T = p.t_end
+    sol = solve_ivp(f, (0, T), np.r_[p.q0, p.L0], method="DOP853", rtol=1e-13, atol=1e-13)
+    q_ref, L_ref = p.reference(T)
+    err = testing.state_error(sol.y[:4, -1], sol.y[4:, -1], q_ref, L_ref)
+    assert err < 1e-9, err
+
+
+def test_certified_reference_spread_is_within_its_stated_uncertainty():
+    p = testing.problem("top")
+    for t in (1.0, p.t_end):
+        assert p.reference_spread(t) <= p.uncertainty
+    assert testing.problem("hlw").reference_spread(1.0) is None
+
+
+def test_python_rk4_is_order_4_and_drifts():
+    p = testing.problem("hlw")
+    step = python_rk4(p.scene.moments)
+    order = testing.observed_order(step, p)
+    assert order.reliable and order.rounded == 4, order
+    traj = testing.run_step(step, p, dt=0.2, steps=20_000, save_every=20)
+    verdict = testing.energy_drift(traj)
+    assert verdict.kind == "drift", verdict
+    assert verdict.rate < 0  # RK4 dissipates energy on the free body
+    with pytest.raises(AssertionError, match=r"\| \|q\| - 1 \| reached .* at t = "):
+        testing.assert_invariants(traj)
+
+
+def test_python_euler_is_order_1_and_drifts():
+    p = testing.problem("hlw")
+    step = python_euler(p.scene.moments)
+    order = testing.observed_order(step, p, t_end=1.0)
+    assert order.reliable and order.rounded == 1, order
+    traj = testing.run_step(step, p, dt=1e-3, steps=10_000, save_every=10)
+    verdict = testing.energy_drift(traj)
+    assert verdict.kind == "drift" and verdict.rate > 0, verdict  # Euler gains energy
+    with pytest.raises(AssertionError, match="the energy drifts"):
+        testing.assert_invariants(traj, qnorm=None, casimir=None, spatial_L=None)
+
+
+def test_observed_order_works_for_odd_orders_and_any_order():
+    """An error law ``C h^p`` built in: the order comes out for p = 1, 3, 5 and 7, with
+    the round-off floor and the large-step regime excluded."""
+    p = testing.problem("hlw")
+    for order in (1, 3, 5, 7):
+        q_ref, L_ref = p.reference(p.t_end)
+        n_calls = {}
+
+        def step(q, L, h, order=order, q_ref=q_ref, L_ref=L_ref, n_calls=n_calls):
+            n = round(p.t_end / h)
+            k = n_calls[h] = n_calls.get(h, 0) + 1
+            if k < n:
+                return q, L
+            err = min(h**order, 1.0) + 1e-13  # saturated large steps + a floor
+            return q_ref, L_ref * (1 + err)
+
+        found = testing.observed_order(step, p, h_max=4.0, max_steps=2**16)
+        assert found.steps[0] < 1.0  # the saturated regime is left out
+        assert found.reliable and abs(found.order - order) < 0.05, found
+
+
+def python_splitting(moments, bias: float = 0.0):
+    """The symmetric splitting T1(h/2) T2(h/2) T3(h) T2(h/2) T1(h/2) of the free-body
+    Hamiltonian into exact axis rotations (McLachlan 1993), in plain numpy; with
+    ``bias``, |L| is scaled by ``1 + bias`` after every step (a deliberate error)."""
+    moments = np.asarray(moments, dtype=float)
+
+    def rotate(q, L, k, tau):
+        a = tau * L[k] / moments[k]  # rotation of the body about axis k by angle a
+        i, j = (k + 1) % 3, (k + 2) % 3
+        c, s = math.cos(a), math.sin(a)
+        L = L.copy()
+        L[i], L[j] = c * L[i] + s * L[j], -s * L[i] + c * L[j]
+        e = np.zeros(4)
+        e[0], e[k + 1] = math.cos(a / 2), math.sin(a / 2)
+        return Q.multiply(q, e), L
+
+    def step(q, L, h):
+        for k, f in ((0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)):
+            q, L = rotate(q, L, k, f * h)
+        return q, L * (1.0 + bias)
+
+    return step
+
+
+def test_python_splitting_is_order_2_and_bounded():
+    p = testing.problem("asym")
+    step = python_splitting(p.scene.moments)
+    assert testing.observed_order(step, p).rounded == 2
+    traj = testing.run_step(step, p, dt=0.05, steps=60_000, save_every=10)
+    assert testing.energy_drift(traj).kind == "bounded"
+    testing.assert_invariants(traj, qnorm=1e-13)
+
+
+def test_biased_step_is_caught():
+    """The splitting above with a bias of 1e-8 in |L| per step: a drift, caught by
+    energy_drift and by assert_invariants (which names the invariants and the time)."""
+    p = testing.problem("asym")
+    dt = 0.02
+    traj = testing.run_step(python_splitting(p.scene.moments, bias=1e-8), p, dt=dt,
+                            steps=20_000, save_every=10)
+    verdict = testing.energy_drift(traj)
+    assert verdict.kind == "drift", verdict
+    assert abs(verdict.rate - 2e-8 / dt) < 0.05 * 2e-8 / dt  # dE/E = 2 * bias per step
+    with pytest.raises(AssertionError) as info:
+        testing.assert_invariants(traj)
+    msg = str(info.value)
+    assert "|L| changed by" in msg and "the energy drifts" in msg and "L_space" in msg
+    assert "| |q| - 1 |" not in msg  # the orientation is still unit
+
+
+@pytest.mark.parametrize("name", ["hlw", "top", "lagrange"])
+@pytest.mark.parametrize("method", ["splitting2", "rattle", "splitting4"])
+def test_geometric_methods_are_bounded(name, method):
+    p = testing.problem(name)
+    dt = 20 * p.h_max / 100
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=dt, steps=200_000, method=method,
+                             save_every=20)
+    verdict = testing.energy_drift(traj)
+    assert verdict.kind in ("bounded", "random walk"), verdict
+    testing.assert_invariants(traj, qnorm=1e-12)
+
+
+def test_rk4_drift_is_detected_on_the_fast_top():
+    p = testing.problem("top")
+    with pytest.warns(liebody.InvariantWarning, match="rk4"):
+        traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=4e-3, steps=250_000,
+                                 method="rk4", save_every=25)
+    assert testing.energy_drift(traj).kind == "drift"
+
+
+def test_energy_drift_on_errors_of_known_law():
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 20_000.0, 200_001)
+    bounded = 1.0 + 1e-6 * np.sin(3.1 * t) + 1e-7 * rng.normal(size=t.size)
+    walk = 1.0 + 1e-15 * np.cumsum(rng.normal(size=t.size))
+    drift = 1.0 + 1e-10 * t + 1e-7 * np.sin(2.0 * t)
+    assert testing.energy_drift(t=t, energy=bounded).kind == "bounded"
+    assert testing.energy_drift(t=t, energy=walk).kind == "random walk"
+    found = testing.energy_drift(t=t, energy=drift)
+    assert found.kind == "drift" and abs(found.rate - 1e-10) < 1e-12, found
+    assert found.confidence > 0.5
+    # non-uniform samples are resampled
+    ts = np.sort(rng.uniform(0, 1000, 20_000))
+    assert testing.energy_drift(t=ts, energy=1 + 1e-9 * ts).kind == "drift"
+    with pytest.raises(ValueError, match="at least 64 samples"):
+        testing.energy_drift(t=t[:10], energy=drift[:10])
+    with pytest.raises(ValueError, match="strictly increasing"):
+        testing.energy_drift(t=t[::-1], energy=drift)
+
+
+def test_assert_invariants_messages_name_invariant_size_and_time():
+    p = testing.problem("hlw")
+    with pytest.warns(liebody.InvariantWarning, match="euler"):
+        traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.01, steps=1000,
+                                 method="euler")
+    with pytest.raises(AssertionError) as info:
+        testing.assert_invariants(traj, energy=1e-6)
+    msg = str(info.value)
+    assert "| |q| - 1 | reached" in msg and "tolerance 1e-10" in msg
+    assert "the energy changed by" in msg and "t = 10" in msg
+    # an ensemble names the body
+    L0 = np.stack([p.L0, p.L0 * 2.0])
+    with pytest.warns(liebody.InvariantWarning, match="euler"):
+        traj = liebody.integrate(p.scene, q0=p.q0, L0=L0, dt=0.01, steps=1000,
+                                 method="euler")
+    with pytest.raises(AssertionError, match="of body 1"):
+        testing.assert_invariants(traj, energy=None)
+    # liebody's exact flow passes everything
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.1, steps=1000)
+    testing.assert_invariants(traj, qnorm=1e-14, casimir=1e-14, spatial_L=1e-13, energy=1e-14)
+
+
+def test_bad_input_is_named():
+    p = testing.problem("hlw")
+    with pytest.raises(ValueError, match="unknown method 'nope'"):
+        testing.observed_order("nope", p)
+    with pytest.raises(ValueError, match="cannot integrate"):
+        testing.observed_order("dmv6", "top")
+    with pytest.raises(ValueError, match="no step and no order"):
+        testing.observed_order("exact", p)
+    with pytest.raises(ValueError, match="dt must be finite and > 0"):
+        testing.run_step(python_rk4(p.scene.moments), p, dt=0.0, steps=3)
+    with pytest.raises(TypeError, match="step function must return"):
+        testing.run_step(lambda q, L, h: q, p, dt=0.1, steps=3)
+    with pytest.raises(ValueError, match="exact on this problem"):
+        testing.observed_order("splitting4", "symmetric")
+    with pytest.raises(TypeError, match="problem must be"):
+        testing.observed_order("splitting2", 3)
+
+
+def test_a_step_that_blows_up_ends_the_run():
+    p = testing.problem("hlw")
+
+    def bad(q, L, h):
+        return q, L + math.inf
+
+    traj = testing.run_step(bad, p, dt=0.1, steps=5)
+    assert traj.status == "failed" and traj.failed_at == pytest.approx(0.1) and len(traj) == 1

@@ -1,0 +1,111 @@
+"""User-defined methods: compositions and splittings registered as data, then integrated
+and checked by liebody.testing like any built-in method."""
+
+from __future__ import annotations
+
+import pytest
+
+import liebody
+from liebody import _methods, testing
+
+
+@pytest.fixture
+def registered():
+    """Names registered by a test are removed afterwards (the registry is global, and the
+    generic tests iterate over it)."""
+    names: list[str] = []
+    yield names
+    for name in names:
+        _methods._REGISTRY.pop(name, None)
+    _methods._PLANS.clear()
+
+
+G1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+TRIPLE_JUMP = [G1, 1.0 - 2.0 * G1, G1]
+
+
+def test_yoshida_triple_jump_is_order_4(registered):
+    m = liebody.register_composition("user_triple_jump", TRIPLE_JUMP)
+    registered.append(m.name)
+    assert m.order == 4 and m.reversible and m.symplectic
+    assert "user_triple_jump" in liebody.methods()
+    for name in ("hlw", "top"):
+        found = testing.assert_order(m, name, 4)
+        assert found.rounded == 4
+    p = testing.problem("top")
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=4e-3, steps=100_000,
+                             method=m.name, save_every=10)
+    assert testing.energy_drift(traj).kind in ("bounded", "random walk")
+
+
+def test_composition_report():
+    r = liebody.composition_report(TRIPLE_JUMP)
+    assert r.palindromic and r.order_bound == 4
+    assert abs(r.power_sums[3]) < 1e-14 and abs(r.total - 1) < 1e-15
+    assert "order at most 4" in str(r)
+    r = liebody.composition_report([0.25, 0.75])
+    assert not r.palindromic and r.order_bound == 2
+    with pytest.raises(ValueError, match="must sum to 1"):
+        liebody.composition_report([0.5, 0.6])
+    with pytest.raises(ValueError, match="finite numbers"):
+        liebody.composition_report([0.5, float("nan")])
+
+
+def test_composition_checks(registered):
+    with pytest.raises(ValueError, match="must sum to 1"):
+        liebody.register_composition("user_bad", [0.4, 0.4])
+    with pytest.raises(ValueError):
+        liebody.register_composition("user_bad", TRIPLE_JUMP, order=6)  # only order 4
+    with pytest.raises(ValueError, match="cannot be composed"):
+        liebody.register_composition("user_bad", TRIPLE_JUMP, base="rk4")
+    with pytest.raises(ValueError, match="unknown method"):
+        liebody.register_composition("user_bad", TRIPLE_JUMP, base="nope")
+    assert "user_bad" not in liebody.methods()
+    m = liebody.register_composition("user_halves", [0.5, 0.5])
+    registered.append(m.name)
+    assert m.order == 2
+    with pytest.raises(ValueError, match="registered already"):
+        liebody.register_composition("user_halves", [0.5, 0.5])
+
+
+def test_lie_trotter_splitting_is_order_1(registered):
+    m = liebody.register_splitting("user_lie_trotter",
+                                   [("T1", 1.0), ("T2", 1.0), ("T3", 1.0, 1.0)])
+    registered.append(m.name)
+    assert (m.order, m.reversible) == (1, False)
+    found = testing.assert_order(m.name, "asym", 1)
+    assert found.rounded == 1
+    # a free-body-only splitting is refused on a torqued scene, by name
+    with pytest.raises(ValueError, match="cannot integrate"):
+        testing.observed_order(m.name, "top")
+
+
+def test_user_strang_splitting_matches_built_in_order_and_keeps_invariants(registered):
+    flows = [("kick", 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0, 1.0), ("T2", 0.5),
+             ("T1", 0.5), ("kick", 0.5)]
+    m = liebody.register_splitting("user_strang", flows)
+    registered.append(m.name)
+    assert (m.order, m.reversible, m.symplectic) == (2, True, True)
+    for name in ("lagrange", "top", "asym"):
+        testing.assert_order(m.name, name, 2)
+    p = testing.problem("lagrange")
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.01, steps=100_000,
+                             method=m.name, save_every=10)
+    testing.assert_invariants(traj, qnorm=1e-12)
+
+
+def test_splitting_checks(registered):
+    with pytest.raises(ValueError, match=r"T2 runs for 0\.5"):
+        liebody.register_splitting("user_bad", [("T1", 1.0), ("T2", 0.5), ("T3", 1.0)])
+    with pytest.raises(ValueError, match="unknown sub-flow 'T4'"):
+        liebody.register_splitting("user_bad", [("T4", 1.0)])
+    with pytest.raises(ValueError, match="'kick' runs for"):
+        liebody.register_splitting("user_bad", [("kick", 0.5), ("free", 1.0, 1.0)])
+    with pytest.raises(ValueError, match="clocks add up to"):
+        liebody.register_splitting("user_bad", [("kick", 0.5), ("free", 1.0), ("kick", 0.5)])
+    assert "user_bad" not in liebody.methods()
+    # the exact free flow between two half kicks: order 2 on the top
+    m = liebody.register_splitting("user_kdk", [("kick", 0.5), ("free", 1.0, 1.0),
+                                                ("kick", 0.5)])
+    registered.append(m.name)
+    testing.assert_order(m.name, "top", 2)
