@@ -294,3 +294,33 @@ def test_a_step_that_blows_up_ends_the_run():
 
     traj = testing.run_step(bad, p, dt=0.1, steps=5)
     assert traj.status == "failed" and traj.failed_at == pytest.approx(0.1) and len(traj) == 1
+
+
+def test_a_numba_compiled_step_function():
+    """A user's step compiled with numba: the midpoint rule (order 2) on Euler's equations
+    and the quaternion kinematics, normalising q."""
+    import numba
+
+    p = testing.problem("asym")
+    inv = 1.0 / p.scene.moments
+
+    @numba.njit
+    def f(q, L):
+        w = L * inv
+        dq = 0.5 * np.array([
+            -q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
+            q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
+            q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
+            q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
+        ])
+        return dq, np.cross(L, w)
+
+    @numba.njit
+    def midpoint(q, L, h):
+        dq, dL = f(q, L)
+        dq, dL = f(q + 0.5 * h * dq, L + 0.5 * h * dL)
+        q = q + h * dq
+        return q / np.sqrt(np.sum(q * q)), L + h * dL
+
+    found = testing.assert_order(midpoint, p, 2)
+    assert found.reliable
