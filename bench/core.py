@@ -126,6 +126,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", metavar="DIR", default=DEFAULT_OUT,
                         help=f"where the JSON, CSV and PNG files go (default: {DEFAULT_OUT})")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument("--register", metavar="MODULE", action="append", default=[],
+                        help="import this module first (repeatable): the methods it "
+                             "registers (liebody.register_composition, "
+                             "register_splitting, register) are benchmarked with the rest")
     owners = {}
     for name in BENCHMARKS:
         bench = load(name)
@@ -135,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
                                action="append" if opt.repeat else "store", help=opt.help)
             owners[opt.dest] = name
     args = vars(parser.parse_args(argv))
+    for module in args["register"]:
+        importlib.import_module(module)
     options: dict[str, dict] = {}
     for dest, name in owners.items():
         if args[dest] is not None:

@@ -109,3 +109,20 @@ def test_splitting_checks(registered):
                                                 ("kick", 0.5)])
     registered.append(m.name)
     testing.assert_order(m.name, "top", 2)
+
+
+def test_a_registered_method_is_benchmarked(registered, monkeypatch):
+    """``python -m bench --register MODULE`` imports the user's module first; its methods
+    are then in every benchmark problem that they can integrate."""
+    from bench import core
+    from bench.problems import problems
+
+    calls = []
+    monkeypatch.setattr(core, "run_all", lambda *a, **k: calls.append(k))
+    monkeypatch.syspath_prepend(str(__import__("pathlib").Path(__file__).parent))
+    registered.append("plugin_triple_jump")
+    assert core.main(["--register", "plugin_triple_jump", "--quick", "--only",
+                      "work_precision"]) == 0
+    assert calls and calls[0]["quick"]
+    for key in ("hlw", "top"):
+        assert "plugin_triple_jump" in problems()[key].methods()
