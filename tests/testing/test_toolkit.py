@@ -19,18 +19,22 @@ from liebody import quaternion as Q
 from liebody import testing
 
 
+def qdot(q, w):
+    """``q' = q (0, omega) / 2``: quaternion kinematics with the body angular velocity."""
+    return 0.5 * np.array([
+        -q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
+        q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
+        q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
+        q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
+    ])
+
+
 def _rhs(moments):
-    """Euler's equations and q' = q (0, omega) / 2 for a free body (Hand & Finch, ch. 8)."""
+    """Euler's equations and the kinematics for a free body (Hand & Finch, ch. 8)."""
 
     def f(q, L):
         w = L / moments
-        dq = 0.5 * np.array([
-            -q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
-            q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
-            q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
-            q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
-        ])
-        return dq, np.cross(L, w)
+        return qdot(q, w), np.cross(L, w)
 
     return f
 
@@ -303,17 +307,12 @@ def test_a_numba_compiled_step_function():
 
     p = testing.problem("asym")
     inv = 1.0 / p.scene.moments
+    kinematics = numba.njit(qdot)
 
     @numba.njit
     def f(q, L):
         w = L * inv
-        dq = 0.5 * np.array([
-            -q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
-            q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
-            q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
-            q[0] * w[2] + q[1] * w[1] - q[2] * w[0],
-        ])
-        return dq, np.cross(L, w)
+        return kinematics(q, w), np.cross(L, w)
 
     @numba.njit
     def midpoint(q, L, h):
