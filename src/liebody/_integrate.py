@@ -58,6 +58,10 @@ SLICE_SECONDS = 0.2
 #: steps (or samples) in the first slice of a run; later slices are sized by the clock
 FIRST_SLICE = 4096
 
+#: sample times of short runs, kept read-only and shared: (n_steps, save_every, dt) -> t
+_SHORT_TIMES: dict = {}
+SHORT_TIMES_SAMPLES, SHORT_TIMES_KEPT = 64, 256
+
 #: tolerances of the end-of-run check (InvariantWarning)
 QNORM_TOL = 1e-6  # | |q| - 1 |, any method
 CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
@@ -144,6 +148,10 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> 
     Refuses (``ValueError``) a run whose samples for ``bodies`` bodies do not fit in the
     available memory, saying which ``save_every`` would.
     """
+    key = (n_steps, save_every, dt)
+    cached = _SHORT_TIMES.get(key)
+    if cached is not None:
+        return cached
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
     n_samples = n_saves + 1
     per = _per_sample(bodies)
@@ -169,6 +177,11 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> 
     t *= save_every
     t[-1] = n_steps
     t *= dt
+    if n_samples <= SHORT_TIMES_SAMPLES:  # the short runs of control loops and optimisers
+        t.flags.writeable = False
+        if len(_SHORT_TIMES) >= SHORT_TIMES_KEPT:
+            _SHORT_TIMES.pop(next(iter(_SHORT_TIMES)))
+        _SHORT_TIMES[key] = t
     return t
 
 
@@ -200,7 +213,11 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
             bar.close()
 
 
-def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
+_DEFAULT_Q0 = (1.0, 0.0, 0.0, 0.0)
+_IDENTITY = np.array(_DEFAULT_Q0)
+
+
+def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, progress: bool = False,
               threads: int | None = None, diagnostics: bool = False,
               controls=None, t0: float = 0.0) -> Trajectory:
@@ -296,7 +313,7 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
-    q_init = _as_unit_q("q0", q0)
+    q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
     _check_batch("q0", q_init)
     m_init = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
@@ -533,6 +550,7 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
+            self.q_out.flags.writeable = self.m_out.flags.writeable = False  # ours: no view
             traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene, self.method,
                               self.dt, info=self.info, diagnostics=self._diagnostics())
             return self._finish(traj)
@@ -685,9 +703,7 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
     if (method.symplectic or method.keeps_energy) and caps.conservative:
         V0 = V1 = 0.0
         if caps.torque:
-            ends = np.array([q0, q1])
-            V0, V1 = (float(v) for v in np.asarray(scene.potential(
-                ends / np.linalg.norm(ends, axis=-1)[:, None])))
+            V0, V1 = _end_potentials(scene, q0, q1)
         e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
         if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
             out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
@@ -695,6 +711,25 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
     if caps.dissipative and method.keeps_casimir and T1 > T0 * (1.0 + 1e-9):
         out.append(f"the energy grew from {T0:.6g} to {T1:.6g} in a dissipative scene")
     return out
+
+
+def _gravity_potential(c, q) -> float:
+    """``V = c . (R(q)^T e_z)`` of uniform gravity (``c = M g cm``), scalar arithmetic."""
+    w, x, y, z = q
+    n2 = w * w + x * x + y * y + z * z
+    return (c[0] * 2.0 * (x * z - w * y) + c[1] * 2.0 * (y * z + w * x)
+            + c[2] * (w * w - x * x - y * y + z * z)) / n2
+
+
+def _end_potentials(scene, q0: list, q1: list) -> tuple[float, float]:
+    """The scene's potential at the first and last orientation (normalised)."""
+    model = scene.torque_model()
+    if model.code == S.TORQUE_GRAVITY and np.ndim(model.constants) == 1:
+        c = model.constants.tolist()
+        return _gravity_potential(c, q0), _gravity_potential(c, q1)
+    ends = np.array([q0, q1])
+    V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[:, None]))
+    return float(V[0]), float(V[1])
 
 
 def _torque_is_finite(model, state, times, u=None) -> bool:

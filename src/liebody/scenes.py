@@ -100,6 +100,29 @@ class Capabilities:
         return " and ".join(parts)
 
 
+#: prefix of the instance attributes that memoise what a (frozen) scene derives from its
+#: parameters; :meth:`Scene.take` drops them
+_MEMO = "_memo_"
+
+
+def _memo(scene, name: str, make):
+    """``make()`` computed once per scene (scenes are frozen: their parameters never
+    change) and kept on the instance."""
+    d = vars(scene)
+    key = _MEMO + name
+    try:
+        return d[key]
+    except KeyError:
+        d[key] = value = make()
+        return value
+
+
+#: the capabilities of the built-in scenes, made once (read on every call)
+_FREE = Capabilities()
+_GRAVITY = Capabilities(torque=frozenset({"orientation"}), conservative=True)
+_DAMPED = Capabilities(conservative=False, dissipative=True)
+
+
 @dataclass(frozen=True)
 class TorqueModel:
     """How the kernels evaluate a scene's torque (part of the scene contract).
@@ -126,7 +149,9 @@ class TorqueModel:
     def gravity(cls, weight_arm) -> TorqueModel:
         """Uniform gravity ``-g e_z`` on a body whose ``M g cm`` is ``weight_arm`` (``(3,)``,
         or ``(N, 3)`` for a batch)."""
-        return cls(TORQUE_GRAVITY, np.array(weight_arm, dtype=float))
+        c = np.array(weight_arm, dtype=float)
+        c.flags.writeable = False  # a scene memoises its model: shared, never written
+        return cls(TORQUE_GRAVITY, c)
 
     @classmethod
     def user(cls, torque, controls: int = 0) -> TorqueModel:
@@ -169,6 +194,8 @@ class Scene:
         import copy
 
         out = copy.copy(self)
+        for key in [k for k in vars(out) if k.startswith(_MEMO)]:
+            del vars(out)[key]  # derived from the parameters that change here
         if self.body.shape:
             object.__setattr__(out, "body", self.body[idx])
         for name, rank in self.per_body.items():
@@ -241,7 +268,7 @@ class FreeBody(Scene):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities()
+        return _FREE
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -311,12 +338,12 @@ class HeavyTop(Scene):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(torque=frozenset({"orientation"}), conservative=True)
+        return _GRAVITY
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
-        return np.broadcast_shapes(self.body.shape, self.cm.shape[:-1], np.shape(self.mass),
-                                   np.shape(self.g))
+        return _memo(self, "batch_shape", lambda: np.broadcast_shapes(
+            self.body.shape, self.cm.shape[:-1], np.shape(self.mass), np.shape(self.g)))
 
     @property
     def weight_arm(self) -> np.ndarray:
@@ -336,7 +363,7 @@ class HeavyTop(Scene):
         return np.sum(gamma * _per_body(self.weight_arm, gamma), axis=-1)
 
     def torque_model(self) -> TorqueModel:
-        return TorqueModel.gravity(self.weight_arm)
+        return _memo(self, "torque_model", lambda: TorqueModel.gravity(self.weight_arm))
 
     def __repr__(self) -> str:
         if self.batch_shape:
@@ -524,7 +551,7 @@ class DampedBody(Scene):
 
     @property
     def capabilities(self) -> Capabilities:
-        return Capabilities(conservative=False, dissipative=True)
+        return _DAMPED
 
     @property
     def dissipation(self) -> float:

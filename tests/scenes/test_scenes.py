@@ -162,3 +162,33 @@ def test_a_direct_scene_subclass_implements_the_contract():
     assert tr.method.name == "splitting2"
     with pytest.raises(ValueError, match="cannot integrate this Thruster"):
         liebody.integrate(scene, L0=[0.0, 0.0, 1.0], dt=0.01, steps=5, method="sr2")
+
+
+def test_end_of_run_gravity_potential_is_the_scenes():
+    """The end-of-run energy check evaluates uniform gravity in scalar arithmetic; it must
+    be the scene's potential (also for a quaternion off the unit sphere)."""
+    from liebody import quaternion
+    from liebody._integrate import _end_potentials
+
+    rng = np.random.default_rng(3)
+    top = liebody.HeavyTop(liebody.RigidBody([2.0, 3.0, 4.0]), mass=1.5,
+                           cm=[0.2, -0.4, 0.7], g=9.81)
+    for _ in range(20):
+        q0, q1 = quaternion.random(2, rng=rng)
+        V0, V1 = _end_potentials(top, (1.3 * q0).tolist(), q1.tolist())
+        np.testing.assert_allclose([V0, V1], top.potential(np.stack([q0, q1])),
+                                   rtol=1e-13, atol=1e-14)
+
+
+def test_a_scenes_memoised_model_follows_take():
+    """A heavy top memoises its torque model and batch shape; the scene of some of its
+    bodies (take) derives its own."""
+    tops = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass=[1.0, 2.0, 3.0],
+                            cm=[0.0, 0.0, 1.0], g=1.0)
+    assert tops.batch_shape == (3,) and tops.torque_model().constants.shape == (3, 3)
+    one = tops.take(slice(1, 2))
+    assert one.batch_shape == (1,)
+    np.testing.assert_array_equal(one.torque_model().constants, [[0.0, 0.0, 2.0]])
+    assert tops.torque_model() is tops.torque_model()
+    with pytest.raises(ValueError, match="read-only"):
+        tops.torque_model().constants[0, 0] = 1.0
