@@ -60,6 +60,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "register_composition": ("liebody._methods", "register_composition"),
     "register_splitting": ("liebody._methods", "register_splitting"),
     "composition_report": ("liebody._methods", "composition_report"),
+    "CoefficientReport": ("liebody._methods", "CoefficientReport"),
     "testing": ("liebody.testing", None),
 }
 
@@ -79,6 +80,7 @@ if TYPE_CHECKING:  # pragma: no cover
     )
     from liebody._integrate import integrate  # noqa: F401
     from liebody._methods import (  # noqa: F401
+        CoefficientReport,
         Handles,
         Method,
         composition_report,

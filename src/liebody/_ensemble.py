@@ -3,7 +3,7 @@
 The bodies share the scene's kind and the method; their initial states (``q0`` ``(N, 4)``,
 ``L0``/``omega0`` ``(N, 3)``) and the scene's parameters (moments ``(N, 3)``, a heavy
 top's mass and centre of mass, a damping strength) may differ, broadcast like numpy
-arrays. The recipe plans all bodies at once (:mod:`liebody._plan`): bodies whose steps
+arrays. The recipe plans all bodies at once (``liebody._plan``): bodies whose steps
 share a structure (the same axis ordering, say) form a group with per-body parameters.
 Each group runs in the batch driver of its family, split into contiguous chunks of
 bodies over ``threads`` threads (the kernels release the GIL) and into time slices (so

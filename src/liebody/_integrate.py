@@ -273,17 +273,6 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         time-dependent torque sees that clock, so a run can continue where another
         ended.
 
-    Ensembles
-    ---------
-    Give ``q0`` ``(N, 4)`` and/or ``L0``/``omega0`` ``(N, 3)`` (a single state
-    broadcasts), or a scene whose parameters have a body axis (moments ``(N, 3)``, a
-    heavy top's ``mass`` ``(N,)`` and ``cm`` ``(N, 3)``, ...): one call integrates the
-    ``N`` bodies. The trajectory's arrays then keep a leading body axis, ``q``
-    ``(N, n, 4)``, ``L`` ``(N, n, 3)``, ``t`` ``(n,)``, and every diagnostic works per
-    body. Each body's numbers are those of a one-body call, bit for bit. Failures are
-    per body: a body that fails stops (``failed_at[i]``, its later samples NaN, one
-    warning for all) and the others finish.
-
     Returns
     -------
     Trajectory
@@ -309,6 +298,17 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     IntegrationInterrupted
         Ctrl-C during the run (a ``KeyboardInterrupt``); ``.trajectory`` holds the
         samples computed so far. The run stops within about a second.
+
+    Notes
+    -----
+    **Ensembles.** Give ``q0`` ``(N, 4)`` and/or ``L0``/``omega0`` ``(N, 3)`` (a single state
+    broadcasts), or a scene whose parameters have a body axis (moments ``(N, 3)``, a
+    heavy top's ``mass`` ``(N,)`` and ``cm`` ``(N, 3)``, ...): one call integrates the
+    ``N`` bodies. The trajectory's arrays then keep a leading body axis, ``q``
+    ``(N, n, 4)``, ``L`` ``(N, n, 3)``, ``t`` ``(n,)``, and every diagnostic works per
+    body. Each body's numbers are those of a one-body call, bit for bit. Failures are
+    per body: a body that fails stops (``failed_at[i]``, its later samples NaN, one
+    warning for all) and the others finish.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "

@@ -1,7 +1,7 @@
 """The method catalogue: every integrator is a :class:`Method` record, registered once.
 
 A method is data: a name, its order and properties, what scenes it can handle, and
-a *recipe* (:mod:`liebody._plan`) that builds its stage table for a scene, initial
+a *recipe* (``liebody._plan``) that builds its stage table for a scene, initial
 state and step. Compositions are a coefficient table applied to a second-order base
 recipe. :func:`methods` renders the catalogue as a table, so the documentation and
 the tests read one truth; adding a method is one :func:`register` call.
@@ -98,7 +98,7 @@ class Method:
         Public name passed as ``integrate(..., method=name)``.
     recipe
         Builds the method's stage table for a scene, initial state and step
-        (:mod:`liebody._plan`).
+        (``liebody._plan``).
     order
         Classical order (``math.inf`` for the exact flow).
     family
@@ -334,7 +334,7 @@ for _m in (
 
 @dataclass(frozen=True)
 class CoefficientReport:
-    """What the registry found in a list of composition coefficients ``g_1 .. g_s``.
+    """What the registry found in a list of composition coefficients ``g_1, ..., g_s``.
 
     Attributes
     ----------
@@ -369,7 +369,7 @@ class CoefficientReport:
 
 def composition_report(coefficients) -> CoefficientReport:
     """Check composition coefficients: finite, consistent (``sum g = 1``); report their
-    symmetry and power sums (:class:`CoefficientReport`). Raises ``ValueError`` when they
+    symmetry and power sums (:class:`~liebody.CoefficientReport`). Raises ``ValueError`` when they
     are not finite numbers or do not sum to 1."""
     g = np.asarray(coefficients, dtype=float)
     if g.ndim != 1 or g.size == 0 or not np.all(np.isfinite(g)):
@@ -395,7 +395,10 @@ def composition_report(coefficients) -> CoefficientReport:
 def register_composition(name: str, coefficients, base: str = "splitting2", *,
                          order: int | None = None, description: str = "",
                          replace: bool = False) -> Method:
-    """Register the composition ``S(g_s h) ... S(g_1 h)`` of a registered base method.
+    """Register a composition of a registered base method, from its coefficients.
+
+    The step is ``S(g_s h) ... S(g_1 h)``: the base method ``S`` run for the fractions
+    ``g_1, ..., g_s`` of the step in turn.
 
     Parameters
     ----------
@@ -403,7 +406,7 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
         The new method's name (an identifier).
     coefficients
         The full list of fractions ``g_1 .. g_s`` of the step given to the base method,
-        in the order they run (as :data:`COMPOSITIONS` stores them), summing to 1.
+        in the order they run (as ``liebody._methods.COMPOSITIONS`` stores them), summing to 1.
     base
         A registered time-stepping method to compose (a symmetric second-order one for
         the classical order theory: ``"splitting2"``, ``"sr2"``, ``"rattle"``, ...).
@@ -455,7 +458,7 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
 
 def register_splitting(name: str, flows, *, order: int | None = None,
                        description: str = "", replace: bool = False) -> Method:
-    """Register a splitting made of exact sub-flows (:class:`liebody._plan.FlowSequence`).
+    """Register a splitting made of exact sub-flows (``FlowSequence``).
 
     Parameters
     ----------

@@ -15,7 +15,7 @@ range is found by sampling that segment.
 
 This module is the numerical counterpart of the closed forms of Fassò (2003) and
 McLachlan (1993) (checked against them in the tests); the splitting recipes of
-:mod:`liebody._plan` use :func:`best_axis_ordering` and :func:`best_sr2_variant` to
+``liebody._plan`` use :func:`best_axis_ordering` and :func:`best_sr2_variant` to
 choose the axis ordering of ``splitting2`` and the base of the compositions.
 """
 

@@ -95,8 +95,9 @@ class Bodies:
 
     def orderings(self, pieces_of) -> tuple[np.ndarray, np.ndarray]:
         """:func:`liebody._ordering.best_orderings` of these bodies (index and score per
-        body), computed once per splitting family and kept (also by :meth:`take`): the
-        recipes read it for the keys and again for ``info``."""
+        body), computed once per splitting family and kept (also by
+        :meth:`~liebody.Scene.take`): the recipes read it for the keys and again for
+        ``info``."""
         memo = self.__dict__.setdefault("_orderings", {})
         if pieces_of not in memo:
             memo[pieces_of] = _ordering.best_orderings(pieces_of, self.moments, self.m0)

@@ -121,7 +121,7 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     client
         A ``dask.distributed.Client``; ``None``: the current default client.
     bodies_per_task
-        Bodies per task (default :data:`DEFAULT_BODIES_PER_TASK`, at least one task
+        Bodies per task (default ``DEFAULT_BODIES_PER_TASK``, at least one task
         per worker thread where there are enough bodies).
     threads_per_task
         Threads each task runs on (1: let Dask run one task per worker thread).

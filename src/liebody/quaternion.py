@@ -11,7 +11,7 @@ passing arrays across directly.
 
 Every function accepts a single quaternion ``(4,)`` or an array ``(..., 4)`` and
 broadcasts its arguments like numpy. The arithmetic runs in the numba kernels of
-:mod:`liebody._kernels.quat` (compiled on first use, cached on disk).
+``liebody._kernels.quat`` (compiled on first use, cached on disk).
 """
 
 from __future__ import annotations

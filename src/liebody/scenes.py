@@ -183,7 +183,7 @@ class Scene:
     body: RigidBody
     free_flow: str = "auto"
     #: parameters that may be given per body, with the rank of one body's value
-    #: (0: a number, 1: a vector); :meth:`take` slices them
+    #: (0: a number, 1: a vector); ``take`` slices them
     per_body: ClassVar[dict[str, int]] = {}
     #: number of control inputs ``u`` the torque takes (:class:`ControlledBody`)
     controls: int = 0
@@ -347,11 +347,12 @@ class HeavyTop(Scene):
 
     @property
     def weight_arm(self) -> np.ndarray:
-        """``c = mass * g * cm`` (body frame): ``V = c . Gamma``; ``(N, 3)`` per body."""
+        """The weight arm ``c = mass * g * cm`` in the body frame, ``(N, 3)`` per body: the
+        potential is ``V = c·Gamma``."""
         return (np.asarray(self.mass) * np.asarray(self.g))[..., None] * self.cm
 
     def potential(self, q: np.ndarray) -> np.ndarray:
-        """``V = mass g (R(q) cm) . e_z = c . Gamma`` at orientations ``q`` ``(..., 4)``.
+        """The potential ``V = mass g (R(q) cm)·e_z = c·Gamma`` at orientations ``q`` ``(..., 4)``.
 
         ``q`` is normalised first: the potential of the rotation it stands for (the
         baselines let ``|q|`` drift). For a batch of tops, ``q`` has the body axis first

@@ -1,6 +1,6 @@
 """Conservation regression tests for anyone's rigid-body integrator.
 
-In the spirit of :mod:`numpy.testing`: reference problems with trusted solutions, the
+In the spirit of ``numpy.testing``: reference problems with trusted solutions, the
 observed order of a method (liebody's, a user composition, or a plain Python step
 function), a classifier of the energy error (bounded, linear drift or random walk)
 and assertions on the invariants with messages that say which, by how much and when.
@@ -110,7 +110,7 @@ class Problem:
 
     def reference_spread(self, t: float) -> float | None:
         """For a computed reference, the difference (:func:`state_error`) between its two
-        resolutions at time ``t``: the certificate of :attr:`uncertainty`. ``None`` for
+        resolutions at time ``t``: the certificate of ``uncertainty``. ``None`` for
         closed forms."""
         return None if self._spread is None else float(self._spread(float(t)))
 

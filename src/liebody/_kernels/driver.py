@@ -1,6 +1,6 @@
 """The one composition driver: runs any method given as a stage table.
 
-A method is data (see :mod:`liebody.methods` and :mod:`liebody._plan`): a sequence
+A method is data (see :mod:`liebody.methods` and ``liebody._plan``): a sequence
 of *stages*, each a one-step map applied for ``coef * h``. The stage contract (kinds,
 parameter slots, families, status codes) is :mod:`liebody._kernels.stages`. The
 table is five arrays of equal length::

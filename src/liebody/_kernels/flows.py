@@ -72,7 +72,7 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     sign and of order 1e-16, makes ``|q|`` and ``|m|`` drift linearly (1.5e-10 per 1e6
     steps of ``splitting4`` on the Simo–Wong top). Here both rotations are applied in
     increment form, ``x + ((cos - 1) x + sin y)`` with ``cos - 1`` accurate (see
-    :func:`~liebody._kernels.quat.qexp_increment`), which leaves a norm error of order
+    ``qexp_increment``), which leaves a norm error of order
     ``eps sin^2``. Same sub-flow, a few more flops.
     """
     half = 0.5 * tau * rate * component(axis, m1, m2, m3)
@@ -100,7 +100,7 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     Together with an :func:`axis_flow` about the symmetry axis (they commute) this
     is the exact flow of a symmetric body (Touma & Wisdom 1994; Hairer & Vilmart's SR2). The
     rotation recurs every step on a free body (``|m|`` is constant), so it is applied
-    in increment form (:func:`~liebody._kernels.quat.qmul_increment`): no drift of
+    in increment form (``qmul_increment``): no drift of
     ``|q|`` from the rounding of ``cos`` near 1.
     """
     a = tau * rate
