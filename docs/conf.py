@@ -41,7 +41,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb",
+exclude_patterns = ["_build", "guide/_methods_table.md", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb",
                     "auto_examples/*.py", "auto_examples/*.zip", "auto_examples/*.codeobj.json",
                     "sg_execution_times.rst"]
 templates_path = ["_templates"]
@@ -100,5 +100,12 @@ html_sidebars = {"index": [], "getting_started": []}
 mathjax3_config = {"tex": {"macros": {"R": r"\mathbb{R}"}}}
 
 
+def _methods_table(app) -> None:
+    """The method guide's catalogue, generated from the registry at every build."""
+    table = liebody.methods().to_markdown()
+    (Path(app.srcdir) / "guide" / "_methods_table.md").write_text(table + "\n")
+
+
 def setup(app) -> None:
     os.environ.setdefault("MPLBACKEND", "Agg")
+    app.connect("builder-inited", _methods_table)
