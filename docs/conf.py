@@ -41,9 +41,9 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "guide/_methods_table.md", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb",
-                    "auto_examples/*.py", "auto_examples/*.zip", "auto_examples/*.codeobj.json",
-                    "sg_execution_times.rst"]
+exclude_patterns = ["_build", "guide/_methods_table.md", "Thumbs.db", ".DS_Store",
+                    "auto_examples/*.ipynb", "auto_examples/*.py", "auto_examples/*.zip",
+                    "auto_examples/*.codeobj.json", "sg_execution_times.rst"]
 templates_path = ["_templates"]
 
 # every cross-reference must resolve (no intersphinx: the build needs no network, so the

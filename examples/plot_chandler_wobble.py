@@ -33,7 +33,7 @@ offset = 1e-6  # rad between the rotation axis and the figure axis: about 6 m at
 omega0 = spin * np.array([np.sin(offset), 0.0, np.cos(offset)])
 
 predicted = analysis.chandler_period(earth)  # in sidereal days
-n_days = int(round(3 * predicted))
+n_days = round(3 * predicted)
 traj = liebody.integrate(liebody.FreeBody(earth), omega0=omega0, dt=day, steps=n_days)
 measured = analysis.wobble_period(traj) / day
 print(f"Euler's period A/(C - A): {predicted:.6f} sidereal days")

@@ -86,7 +86,7 @@ ax3.quiver(0, 0, 0, *L_dir, color="tab:red")
 (bar_artist,) = ax3.plot([], [], [], lw=5, color="tab:blue", solid_capstyle="round")
 (stem_artist,) = ax3.plot([], [], [], lw=5, color="tab:orange", solid_capstyle="round")
 title = ax3.set_title("")
-frames = np.arange(0, int(round(1.1 * period / 0.002)), 6)
+frames = np.arange(0, round(1.1 * period / 0.002), 6)
 
 
 def draw(k):
