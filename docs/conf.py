@@ -98,6 +98,14 @@ html_theme_options = {
 }
 html_sidebars = {"index": [], "getting_started": []}
 mathjax3_config = {"tex": {"macros": {"R": r"\mathbb{R}"}}}
+# the site loads MathJax from its CDN; LIEBODY_DOCS_MATHJAX points it at a local copy
+# instead, for looking at the pages offline (e.g. Debian's libjs-mathjax:
+# file:///usr/share/javascript/mathjax/MathJax.js?config=TeX-AMS-MML_HTMLorMML)
+if os.environ.get("LIEBODY_DOCS_MATHJAX"):  # a MathJax 2 copy: its own configuration
+    mathjax_path = os.environ["LIEBODY_DOCS_MATHJAX"]
+    mathjax3_config = None
+    mathjax2_config = {"tex2jax": {"processClass": "math|output_area",
+                                   "ignoreClass": "tex2jax_ignore|mathjax_ignore|document"}}
 
 
 def _methods_table(app) -> None:

@@ -67,8 +67,8 @@ fig.tight_layout()
 # The animation
 # -------------
 #
-# The handle drawn in space, ``r_space = R(q) r_body``, over the first two flips (every
-# 4th sample): the stem turns over while the handle keeps spinning. Its spatial angular
+# The handle drawn in space, ``r_space = R(q) r_body``, over its first two flips (every
+# 6th sample): the stem turns over while the handle keeps spinning. Its spatial angular
 # momentum (the arrow) stays fixed.
 
 bar_line = points[:2]
