@@ -48,7 +48,7 @@ class EnsembleRun:
     """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 threads, diagnostics=False, u=None, t0=0.0):
+                 threads, diagnostics=False, u=None, t0=0.0, simd=None):
         from liebody._integrate import diagnostic_reference, time_slices
 
         self.scene, self.method, self.dt = scene, method, dt
@@ -58,6 +58,7 @@ class EnsembleRun:
         self.threads = threads
         self.u = u  # the controls: (k,) or (N, k), or None
         self.t0 = t0  # the start time; self.t holds the sample times relative to it
+        self.simd = simd  # None: automatic; True / False: where supported / never
         self.slices = time_slices
         n, k = q0.shape[0], t.shape[0]
         self.q_out = np.empty((n, k, 4))
@@ -123,14 +124,26 @@ class EnsembleRun:
         return self._result(len(t))
 
     # -------------------------------------------------------------- stepping
-    def stepped(self) -> Trajectory:
+    def _runner(self, plan):
+        """The batch driver of a plan: the SIMD one where it applies, else the one-body
+        loop per body; and whether it is the SIMD one."""
         from liebody._kernels.driver import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
 
-        runners = DIAG_BATCH_RUNNERS if self.diag else BATCH_RUNNERS
+        wanted = self.simd is not False and (self.simd or self.n >= _simd().SIMD_MIN_BODIES)
+        if wanted and _simd().simd_supports(plan, self.model.code):
+            return _simd().SIMD_RUNNERS[(plan.family, bool(self.diag))], True
+        return (DIAG_BATCH_RUNNERS if self.diag else BATCH_RUNNERS)[plan.family], False
+
+    def stepped(self) -> Trajectory:
         groups = self.method.plans(self.scene, self.m0, self.dt)
-        self.info = (groups[0][1].info if len(groups) == 1
-                     else {"groups": [dict(plan.info, bodies=idx) for idx, plan in groups]})
-        work = [self._group(idx, plan, runners[plan.family]) for idx, plan in groups]
+        runners = [self._runner(plan) for _, plan in groups]
+        if len(groups) == 1:
+            self.info = dict(groups[0][1].info, simd=runners[0][1])
+        else:
+            self.info = {"groups": [dict(plan.info, bodies=idx, simd=r[1])
+                                    for (idx, plan), r in zip(groups, runners, strict=True)]}
+        work = [self._group(idx, plan, r[0])
+                for (idx, plan), r in zip(groups, runners, strict=True)]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
         done = 0
         with _pool(min(self.threads, len(chunks))) as pool:
@@ -250,6 +263,13 @@ class EnsembleRun:
     def _times(self) -> np.ndarray:
         """The sample times ``t0 + t``."""
         return self.t if self.t0 == 0.0 else self.t0 + self.t
+
+
+def _simd():
+    """The SIMD kernels' module (imported on the first ensemble that steps)."""
+    from liebody._kernels import batch
+
+    return batch
 
 
 def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:

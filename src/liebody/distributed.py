@@ -110,14 +110,15 @@ class DistributedResult:
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, diagnostics: bool = False,
               client=None, bodies_per_task: int | None = None, threads_per_task: int = 1,
-              gather: bool = True):
+              gather: bool = True, simd: bool | None = None):
     """:func:`liebody.integrate` for an ensemble, split over a Dask cluster.
 
     Parameters
     ----------
-    scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagnostics
+    scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagnostics, simd
         As for :func:`liebody.integrate` (the ensemble given by the body axis of the
-        states and of the scene's parameters).
+        states and of the scene's parameters). ``simd=None`` is decided once for the
+        whole ensemble, so that every task runs the kernels the local call would.
     client
         A ``dask.distributed.Client``; ``None``: the current default client.
     bodies_per_task
@@ -158,7 +159,8 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     per_task = max(1, min(per_task, math.ceil(n / workers)))
     kwargs = {"dt": dt, "steps": steps, "t_end": t_end, "method": method.name, "momentum": m_name,
               "save_every": save_every, "diagnostics": diagnostics,
-              "threads": as_positive_int("threads_per_task", threads_per_task)}
+              "threads": as_positive_int("threads_per_task", threads_per_task),
+              "simd": _simd_for(simd, n)}
     edges = list(range(0, n, per_task)) + [n]
     chunks = [slice(a, b) for a, b in itertools.pairwise(edges)]
     batched = bool(scene.batch_shape)
@@ -169,6 +171,18 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
         return _as_dask(futures, chunks, scene, method, float(dt), client)
     parts = client.gather(futures)
     return _assemble(parts, scene, method, float(dt), diagnostics, liebody)
+
+
+def _simd_for(simd, n: int) -> bool:
+    """The local call's choice for ``n`` bodies, made once for all tasks (a task of fewer
+    bodies would otherwise fall below ``SIMD_MIN_BODIES`` and run other kernels)."""
+    if simd is not None:
+        if not isinstance(simd, bool | np.bool_):
+            raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
+        return bool(simd)
+    from liebody._kernels.batch import SIMD_MIN_BODIES
+
+    return n >= SIMD_MIN_BODIES
 
 
 def _assemble(parts, scene, method, dt, diagnostics, liebody):

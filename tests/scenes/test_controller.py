@@ -483,7 +483,8 @@ def test_a_long_step_call_equals_integrate(bodies):
     n = 70_000
     s = liebody.Stepper(free, L0=L0, dt=0.01, method="splitting2")
     s.step(n)
-    ref = liebody.integrate(free, L0=L0, dt=0.01, steps=n, save_every=n, method="splitting2")
+    ref = liebody.integrate(free, L0=L0, dt=0.01, steps=n, save_every=n, method="splitting2",
+                            simd=False)  # a stepper runs the one-body loop for every body
     np.testing.assert_array_equal(s.q, ref.q[..., -1, :])
     np.testing.assert_array_equal(s.L, ref.L[..., -1, :])
 

@@ -68,10 +68,14 @@ CASES = [(scene, m.name) for scene, (ens, *_) in _scenes().items()
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")  # explicit Euler may blow up per body
 @pytest.mark.parametrize(("scene", "method"), CASES)
 def test_every_body_equals_its_one_body_run(scene, method):
-    """Every method and scene: body i of the ensemble is the one-body call, bit for bit."""
+    """Every method and scene: body i of the ensemble is the one-body call, bit for bit
+    (``simd=False``: the one-body loop for every body)."""
     ens, one, kw, kw_one = _scenes()[scene]
     dt = 1e-3 if scene == "top" else 0.01
-    tr = liebody.integrate(ens, dt=dt, steps=300, method=method, save_every=37, **kw)
+    tr = liebody.integrate(ens, dt=dt, steps=300, method=method, save_every=37, simd=False,
+                           **kw)
+    assert not tr.info.get("simd", False) and not any(
+        g["simd"] for g in tr.info.get("groups", []))
     assert tr.n_bodies == N and tr.q.shape == (N, len(tr), 4) and tr.t.shape == (len(tr),)
     for i in (0, 3, 9, 17, N - 1):
         ref = liebody.integrate(one(i), dt=dt, steps=300, method=method, save_every=37,
@@ -86,6 +90,54 @@ def test_every_body_equals_its_one_body_run(scene, method):
         np.testing.assert_array_equal(tr.L[i], ref.L)
         np.testing.assert_array_equal(tr.t, ref.t)
         np.testing.assert_allclose(tr.energy[i], ref.energy, rtol=1e-14, atol=1e-14)
+
+
+SIMD_METHODS = {"free": {"splitting2", "no_squish", "sr2", "rattle", "splitting4",
+                         "splitting6", "splitting8", "dmv4", "dmv6", "dmv8", "dmv10"},
+                "top": {"splitting2", "no_squish", "rattle", "splitting4", "splitting6",
+                        "splitting8"},
+                "torque": set(), "damped": set()}
+
+
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+@pytest.mark.parametrize(("scene", "method"), CASES)
+def test_simd_kernels_agree_with_the_one_body_run_to_round_off(scene, method):
+    """The default for an ensemble: the SIMD kernels where they apply (the splittings,
+    sr2, rattle and dmv on free bodies and heavy tops; not user torques, dissipation,
+    baselines or the exact flow), agreeing with the one-body call to round-off; the
+    others bit for bit."""
+    ens, one, kw, kw_one = _scenes()[scene]
+    dt = 1e-3 if scene == "top" else 0.01
+    tr = liebody.integrate(ens, dt=dt, steps=300, method=method, save_every=37, **kw)
+    infos = tr.info.get("groups", [tr.info])
+    used = {bool(g.get("simd", False)) for g in infos}
+    assert used == {method in SIMD_METHODS[scene]}, (used, infos)
+    for i in (0, 3, 9, 17, N - 1):
+        ref = liebody.integrate(one(i), dt=dt, steps=300, method=method, save_every=37,
+                                **kw_one(i))
+        if ref.status == "failed":
+            continue
+        scale = np.abs(ref.L).max()
+        if True in used and method not in ("rattle",) and not method.startswith("dmv"):
+            np.testing.assert_allclose(tr.q[i], ref.q, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(tr.L[i], ref.L, rtol=0, atol=1e-12 * scale)
+        else:  # the DMV kernels and the scalar path: the one-body numbers
+            np.testing.assert_array_equal(tr.q[i], ref.q)
+            np.testing.assert_array_equal(tr.L[i], ref.L)
+
+
+def test_simd_switch():
+    ens, _, kw, _ = _scenes()["free"]
+    on = liebody.integrate(ens, dt=0.01, steps=10, method="splitting2", simd=True, **kw)
+    off = liebody.integrate(ens, dt=0.01, steps=10, method="splitting2", simd=False, **kw)
+    assert any(g["simd"] for g in on.info.get("groups", [on.info]))
+    assert not any(g["simd"] for g in off.info.get("groups", [off.info]))
+    two = liebody.integrate(ens.take(slice(0, 2)), dt=0.01, steps=10, method="splitting2",
+                            q0=Q0[:2], L0=L0[:2])
+    assert not any(g["simd"] for g in two.info.get("groups", [two.info]))  # N < 3
+    with pytest.raises(TypeError, match="simd must be True, False or None"):
+        liebody.integrate(ens, dt=0.01, steps=10, method="splitting2", simd="yes", **kw)
 
 
 def test_a_single_state_broadcasts_and_shapes_are_checked(hlw):
