@@ -16,7 +16,10 @@ output folder (``bench/results`` by default):
   horizon beyond which the geometric methods beat ``rk4``;
 * :mod:`bench.long_horizon` — energy, ``|q|`` and momentum drift over ``1e8`` steps;
 * :mod:`bench.stability` — where each method stops keeping the energy bounded, the
-  nutation resonance, and Euler angles against quaternions near gimbal lock.
+  nutation resonance, and Euler angles against quaternions near gimbal lock;
+* :mod:`bench.ensemble` — ns per body-step of ensembles against the number of bodies
+  and threads: a loop over ``integrate()``, the scalar and the SIMD batch drivers,
+  MuJoCo's threaded ``rollout``, ``liebody.distributed`` on a Dask LocalCluster.
 
 :mod:`bench.core` runs them (command line, timing, files, charts, reports); each module
 fills in one :class:`bench.core.Benchmark`. :mod:`bench.problems` holds the shared
@@ -26,4 +29,4 @@ runs in fresh processes. This file imports nothing: ``python -m bench.child`` ti
 """
 
 #: the benchmark modules, in the order ``python -m bench`` runs them
-BENCHMARKS = ("step_cost", "work_precision", "long_horizon", "stability")
+BENCHMARKS = ("step_cost", "work_precision", "long_horizon", "stability", "ensemble")

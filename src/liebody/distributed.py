@@ -200,12 +200,24 @@ def _assemble(parts, scene, method, dt, diagnostics, liebody):
         diag = {k: np.concatenate([p["diagnostics"][k] for p in parts])
                 for k in parts[0]["diagnostics"]}
     infos = [p["info"] for p in parts]
+    same = all(_same(i, infos[0]) for i in infos[1:])
     return liebody.Trajectory(
         parts[0]["t"], np.concatenate([p["q"] for p in parts]),
         np.concatenate([p["L"] for p in parts]), scene, method, dt,
         failed_at=np.concatenate([p["failed_at"] for p in parts]),
-        info=infos[0] if all(i == infos[0] for i in infos[1:]) else {"tasks": infos},
+        info=infos[0] if same else {"tasks": infos},
         status=np.concatenate([p["status"] for p in parts]), diagnostics=diag)
+
+
+def _same(a, b) -> bool:
+    """Equality of two tasks' ``info`` (dicts that may hold arrays: the bodies of groups)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b))
+    return a == b
 
 
 def _as_dask(futures, chunks, scene, method, dt, client):

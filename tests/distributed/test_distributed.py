@@ -99,3 +99,24 @@ def test_one_body_is_refused(client):
     with pytest.raises(ValueError, match="splits an ensemble over a cluster"):
         liebody.distributed.integrate(liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5])),
                                       L0=[1.0, 0.0, 0.0], dt=0.1, steps=10, client=client)
+
+
+def test_small_tasks_run_the_kernels_of_the_local_call(client):
+    """Tasks of 1 or 2 bodies (below SIMD_MIN_BODIES) still run the SIMD kernels the local
+    call of the whole ensemble runs, so the result is the same bit for bit; tasks whose
+    plans differ (other axis orderings) keep their own info."""
+    scene, q0, L0 = _ensemble(7)
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 300, "method": "splitting2",
+          "save_every": 100}
+    local = liebody.integrate(scene, **kw)
+    groups = local.info.get("groups", [local.info])
+    assert all(g["simd"] for g in groups)
+    for per_task in (1, 2):
+        remote = liebody.distributed.integrate(scene, client=client, bodies_per_task=per_task,
+                                               **kw)
+        np.testing.assert_array_equal(remote.q, local.q)
+        np.testing.assert_array_equal(remote.L, local.L)
+        assert "tasks" in remote.info or remote.info == local.info
+    off = liebody.distributed.integrate(scene, client=client, bodies_per_task=2, simd=False,
+                                        **kw)
+    np.testing.assert_array_equal(off.q, liebody.integrate(scene, simd=False, **kw).q)
