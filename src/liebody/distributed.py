@@ -164,7 +164,9 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     edges = list(range(0, n, per_task)) + [n]
     chunks = [slice(a, b) for a, b in itertools.pairwise(edges)]
     batched = bool(scene.batch_shape)
-    scene_f = client.scatter(scene, broadcast=True) if not batched else None
+    # a fresh key per call (hash=False): a repeated call with the same scene must not
+    # reuse the key of data that the previous call's release may be dropping
+    scene_f = client.scatter(scene, broadcast=True, hash=False) if not batched else None
     futures = [client.submit(_run_chunk, scene.take(c) if batched else scene_f,
                              q_raw[c], m_raw[c], kwargs, pure=True) for c in chunks]
     if not gather:

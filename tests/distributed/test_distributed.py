@@ -120,3 +120,15 @@ def test_small_tasks_run_the_kernels_of_the_local_call(client):
     off = liebody.distributed.integrate(scene, client=client, bodies_per_task=2, simd=False,
                                         **kw)
     np.testing.assert_array_equal(off.q, liebody.integrate(scene, simd=False, **kw).q)
+
+
+def test_the_same_call_twice_in_a_row(client):
+    """A repeated call (same scene, same states) gives the same result; it once failed
+    with 'lost dependencies' because both calls shared the scattered scene's key."""
+    _, q0, L0 = _ensemble(40)
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))  # one body, scattered
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 200, "method": "splitting2",
+          "save_every": None}
+    results = [liebody.distributed.integrate(scene, client=client, **kw) for _ in range(3)]
+    for r in results[1:]:
+        np.testing.assert_array_equal(r.q, results[0].q)
