@@ -77,7 +77,7 @@ TARGETS = {"free-splitting2": {"ns": 10.0, "goal_ns": 7.0, "ratio": 7.0, "thread
 def settings(quick: bool) -> dict:
     """``N`` values, threads, the work per point and the repeats."""
     if quick:
-        return {"n": [1, 10, 100, 1000, 10_000], "threads": [1, 2], "body_steps": 3_000_000,
+        return {"n": [1, 10, 100, 1000, 4000], "threads": [1, 2], "body_steps": 2_000_000,
                 "single_steps": 1_000_000, "loop_bodies": 10, "mujoco_body_steps": 20_000,
                 "mujoco_max_steps": 1000,
                 "min_steps": 50, "repeat": 5, "min_batch": 0.02, "long_call_s": 1.0,
@@ -272,7 +272,7 @@ def distributed_rows(cfg: dict, case: tuple, progress) -> list[dict]:
     key, pkey, method, h = case
     pb = problems()[pkey]
     rows = []
-    sizes = sorted(cfg["n"])[-2:]
+    sizes = sorted(cfg["n"])[-2:] if len(cfg["n"]) > 5 else sorted(cfg["n"])[-1:]
     for workers in (1, 2):
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                           dashboard_address=None, silence_logs=logging.ERROR) as cluster, \

@@ -195,7 +195,60 @@ def test_stability_finds_the_known_failure_points(quick):
     assert max(run["quaternion_rk4"]) < 2 * min(run["quaternion_rk4"])
 
 
+@pytest.mark.long
+def test_ensemble_times_every_path_and_the_paths_agree(quick):
+    """Every case has every path at every N (MuJoCo where installed, Dask for the headline
+    case), the SIMD and the scalar batch drivers computed the same states, and the
+    targets are reported."""
+    from bench.ensemble import CASES, PATHS
+
+    out, stdout = quick
+    data = _json(out / "ensemble.json")
+    ns = data["settings"]["n"]
+    for key, *_ in CASES:
+        case = data["cases"][key]
+        assert case["agree"] and case["single_body_ns"] > 0
+        rows = [r for r in data["rows"] if r["case"] == key]
+        for path in PATHS:
+            assert {r["n"] for r in rows if r["path"] == path} == set(ns), (key, path)
+        assert {r["threads"] for r in rows if r["path"] == "batched SIMD"} == {1, 2}
+        if P.mujoco_available() and key != "free-rattle":
+            assert any(r["path"].startswith("MuJoCo") for r in rows)
+        assert all(r["ns"] > 0 for r in rows)
+    dask = [r for r in data["rows"] if r["path"] == "Dask LocalCluster"]
+    assert {r["threads"] for r in dask} == {1, 2}
+    assert all(r["overhead_ms_per_task"] == r["overhead_ms_per_task"] for r in dask)
+    assert "single/SIMD >= 7x" in stdout and "targets:" in stdout
+    assert "Dask LocalCluster" in stdout
+
+
 # ------------------------------------------------------------------------- fast tests
+
+
+def test_ensemble_recording_times_the_drivers_and_restores_them():
+    """bench.ensemble.recording wraps every batch driver for one call only; integrate's
+    own switch chooses the scalar or the SIMD driver."""
+    from bench.ensemble import Stepping, recording
+    from liebody._kernels import batch, driver
+
+    before = dict(driver.BATCH_RUNNERS), dict(batch.SIMD_RUNNERS)
+    scene = liebody.FreeBody(liebody.RigidBody([0.6, 0.8, 1.0]))
+    q0 = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
+    L0 = np.array([[1.8, 0.4, -0.9], [1.7, 0.5, -0.9], [1.8, 0.4, -1.0]])
+    out = {}
+    for simd in (False, True):
+        rec = Stepping()
+        with recording(rec):
+            assert driver.BATCH_RUNNERS[0] is not before[0][0]
+            out[simd] = liebody.integrate(scene, q0=q0, L0=L0, dt=0.05, steps=50,
+                                          method="splitting2", save_every=None, simd=simd)
+        assert rec.spans and rec.seconds > 0
+        assert out[simd].info.get("simd", False) == simd or any(
+            g["simd"] == simd for g in out[simd].info.get("groups", []))
+    assert driver.BATCH_RUNNERS == before[0] and batch.SIMD_RUNNERS == before[1]
+    assert 0.0 < np.abs(out[True].q - out[False].q).max() < 1e-13
+
+
 
 
 def test_cost_at_interpolates_log_log():
