@@ -416,8 +416,13 @@ def _batch_runner(family: int, diag: bool = False):
     status. A body whose status is not OK is skipped (it failed in an earlier slice):
     failures are per body, the others go on. Each body's numbers are those of the
     one-body driver, bit for bit.
+
+    The one-body drivers are called as module globals (``_R<family>``, ``_D<family>``)
+    chosen by branches on the closure constants, not captured in the closure: numba's
+    disk cache keys a closure on its captured values, and a captured dispatcher pickles
+    with a per-process identity, so the batch drivers were compiled again in every
+    process and their cache grew by an entry each time.
     """
-    one = RUNNERS[family] if not diag else DIAG_RUNNERS[family]
 
     @jit
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
@@ -425,10 +430,58 @@ def _batch_runner(family: int, diag: bool = False):
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
-            d, s, st = one(kinds, axes, coefs, clock, params[i], merge_ends, h, t0, step0,
-                           n_steps, save_every, final, state[i], ctl[i],
-                           q_out[i, saved[i]:], m_out[i, saved[i]:], torque_addr, dref[i],
-                           dmax[i])
+            a = (kinds, axes, coefs, clock, params[i], merge_ends, h, t0, step0, n_steps,
+                 save_every, final, state[i], ctl[i], q_out[i, saved[i]:], m_out[i, saved[i]:],
+                 torque_addr, dref[i], dmax[i])
+            if diag:
+                if family == 0:
+                    d, s, st = _D0(*a)
+                elif family == 1:
+                    d, s, st = _D1(*a)
+                elif family == 2:
+                    d, s, st = _D2(*a)
+                elif family == 3:
+                    d, s, st = _D3(*a)
+                elif family == 4:
+                    d, s, st = _D4(*a)
+                elif family == 5:
+                    d, s, st = _D5(*a)
+                elif family == 6:
+                    d, s, st = _D6(*a)
+                elif family == 7:
+                    d, s, st = _D7(*a)
+                elif family == 8:
+                    d, s, st = _D8(*a)
+                elif family == 9:
+                    d, s, st = _D9(*a)
+                elif family == 10:
+                    d, s, st = _D10(*a)
+                else:
+                    d, s, st = _D11(*a)
+            elif family == 0:
+                d, s, st = _R0(*a)
+            elif family == 1:
+                d, s, st = _R1(*a)
+            elif family == 2:
+                d, s, st = _R2(*a)
+            elif family == 3:
+                d, s, st = _R3(*a)
+            elif family == 4:
+                d, s, st = _R4(*a)
+            elif family == 5:
+                d, s, st = _R5(*a)
+            elif family == 6:
+                d, s, st = _R6(*a)
+            elif family == 7:
+                d, s, st = _R7(*a)
+            elif family == 8:
+                d, s, st = _R8(*a)
+            elif family == 9:
+                d, s, st = _R9(*a)
+            elif family == 10:
+                d, s, st = _R10(*a)
+            else:
+                d, s, st = _R11(*a)
             done[i] += d
             saved[i] += s
             status[i] = st
@@ -441,6 +494,11 @@ def _batch_runner(family: int, diag: bool = False):
 RUNNERS = {family: _runner(family) for family in FAMILIES}
 #: the same, keeping running diagnostics
 DIAG_RUNNERS = {family: _runner(family, True) for family in FAMILIES}
+# the one-body drivers as module globals for the batch drivers (see _batch_runner)
+assert sorted(FAMILIES) == list(range(12)), "the batch drivers name twelve families"
+(_R0, _R1, _R2, _R3, _R4, _R5, _R6, _R7, _R8, _R9, _R10, _R11) = (RUNNERS[f] for f in range(12))
+(_D0, _D1, _D2, _D3, _D4, _D5, _D6, _D7, _D8, _D9, _D10, _D11) = (DIAG_RUNNERS[f]
+                                                                for f in range(12))
 #: family code -> its driver for many bodies
 BATCH_RUNNERS = {family: _batch_runner(family) for family in FAMILIES}
 DIAG_BATCH_RUNNERS = {family: _batch_runner(family, True) for family in FAMILIES}
