@@ -38,9 +38,12 @@ def _free():
 
 
 _INTERRUPTED_CHILD = textwrap.dedent("""
-    import json, sys, time
+    import json, signal, sys, time
     import numpy as np
     import liebody
+    # a shell that starts jobs in the background without job control makes them ignore
+    # SIGINT, and the child would inherit that: ask for Python's usual handler
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
     kw = json.loads(sys.argv[1])
     liebody.integrate(scene, L0=[0.3, 1.0, 0.2], dt=1e-3, steps=10, method=kw["method"])
@@ -72,12 +75,15 @@ def test_ctrl_c_stops_a_long_run_and_keeps_its_samples(kw):
         time.sleep(1.5)
         sent = time.perf_counter()
         proc.send_signal(signal.SIGINT)
-        line = proc.stdout.readline()
+        # bounded wait: a child that ignored the signal fails the test, never hangs it
+        stdout, stderr = proc.communicate(timeout=60)
         latency = time.perf_counter() - sent
-        proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the run did not stop within 60 s of SIGINT")
     finally:
         proc.kill()
-    assert line, proc.stderr.read()
+    line = stdout.strip()
+    assert line, stderr
     out = json.loads(line)
     assert out["keyboard"] and out["status"] == "interrupted" and out["ok"]
     assert out["n"] >= 1 and out["step"] > 0
