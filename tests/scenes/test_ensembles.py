@@ -232,7 +232,9 @@ def test_threads_do_not_change_a_bit(hlw):
 
 
 _CHILD = textwrap.dedent("""
-    import json, numpy as np, liebody
+    import json, signal, numpy as np, liebody
+    # a job started in the background without job control inherits SIGINT ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
     L = np.random.default_rng(0).normal(size=(200, 3))
     liebody.integrate(scene, L0=L[:3], dt=1e-3, steps=10, method="splitting2")
@@ -255,11 +257,13 @@ def test_ctrl_c_keeps_an_ensembles_samples():
         assert proc.stdout.readline().strip() == "ready"
         time.sleep(2.0)
         proc.send_signal(signal.SIGINT)
-        line = proc.stdout.readline()
-        proc.wait(timeout=60)
+        stdout, stderr = proc.communicate(timeout=60)  # bounded: never hangs the suite
+    except subprocess.TimeoutExpired:
+        pytest.fail("the ensemble run did not stop within 60 s of SIGINT")
     finally:
         proc.kill()
-    assert line, proc.stderr.read()
+    line = stdout.strip()
+    assert line, stderr
     out = json.loads(line)
     assert out["shape"][0] == 200 and out["shape"][1] >= 2 and out["finite"]
     assert out["status"] == ["interrupted"]
