@@ -103,6 +103,116 @@ def test_every_kernel_is_compiled_with_the_documented_policy():
     assert all(math.isnan(v) for v in quat.qnormalize(0.0, 0.0, 0.0, 0.0))  # 0/0, no raise
 
 
+def _interleaved_saves(cache_file_class, folder: Path) -> dict:
+    """Two writers of one cache index in the order that loses numba's unlocked save:
+    both read the empty index, A writes the index, B writes the index and its data, A
+    writes its data last. Returns what a later reader loads for each key."""
+    import threading
+
+    stamp = (0.0, 1)
+    files = {k: cache_file_class(str(folder), "kernel-1", stamp) for k in "AB"}
+    events = {name: threading.Event() for name in ("A loaded", "B loaded", "A indexed",
+                                                   "B done")}
+
+    def hook(k, method, before=None, after=None):
+        original = getattr(files[k], method)
+
+        def wrapped(*args):
+            if before:
+                events[before].wait(1.0)  # a writer that holds a lock is not waited for
+            out = original(*args)
+            if after:
+                events[after].set()
+            return out
+        setattr(files[k], method, wrapped)
+
+    hook("A", "_load_index", after="A loaded")
+    hook("A", "_save_index", before="B loaded", after="A indexed")
+    hook("A", "_save_data", before="B done")
+    hook("B", "_load_index", before="A loaded", after="B loaded")
+    hook("B", "_save_index", before="A indexed")
+
+    def write(k):
+        files[k].save(("key", k), f"code of {k}")
+        if k == "B":
+            events["B done"].set()
+
+    threads = [threading.Thread(target=write, args=(k,)) for k in "AB"]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    reader = cache_file_class(str(folder), "kernel-1", stamp)
+    return {k: reader.load(("key", k)) for k in "AB"}
+
+
+def test_concurrent_cache_writes_never_map_a_key_to_another_kernel(tmp_path):
+    """Processes compiling at once (Dask workers, a process pool) share numba's cache
+    folder. numba's unlocked save can leave the index naming one kernel's code for
+    another's key, so a later process runs the wrong kernel silently (seen here: an
+    ensemble's bodies all NaN after concurrent first compiles). liebody's cache file
+    saves under a file lock, data before index."""
+    from numba.core.caching import IndexDataCacheFile
+
+    from liebody._kernels import _jit, quat
+
+    (tmp_path / "numba").mkdir()
+    (tmp_path / "ours").mkdir()
+    # the schedule reproduces the loss with numba's own class ...
+    lost = _interleaved_saves(IndexDataCacheFile, tmp_path / "numba")
+    assert lost["B"] == "code of A"
+    # ... and not with the class every liebody kernel gets
+    assert type(quat.qmul._cache._cache_file) is _jit.LockedCacheFile
+    kept = _interleaved_saves(_jit.LockedCacheFile, tmp_path / "ours")
+    assert kept == {"A": "code of A", "B": "code of B"}
+
+
+_ENSEMBLES_RUN = r"""
+import json, sys, numpy as np, liebody
+scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+out = {}
+for method in sys.argv[1:]:
+    tr = liebody.integrate(scene, L0=[[0.3, 1.0, 0.2]] * 4, dt=0.01, steps=50,
+                           method=method, simd=False)
+    out[method] = np.nan_to_num(tr.q[:, -1]).tolist()
+print(json.dumps(out))
+"""
+
+
+def _ensembles(cache: Path, *methods) -> dict:
+    env = {**_clean_env(), "NUMBA_CACHE_DIR": str(cache)}
+    proc = subprocess.run([sys.executable, "-c", _ENSEMBLES_RUN, *methods],
+                          capture_output=True, text=True, env=env, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_kernels_cached_by_different_processes_are_not_mixed_up(tmp_path):
+    """Two ensembles of different methods, each first run in a process of its own, then
+    both in a third process that loads them from the cache. Before: the second ensemble
+    ran the first method's driver (the drivers were closures of one name, and numba
+    linked the cached caller to the other's callee), wrong numbers and no word."""
+    shared, fresh = tmp_path / "shared", tmp_path / "fresh"
+    _ensembles(shared, "rk4")
+    _ensembles(shared, "splitting2")
+    assert _ensembles(shared, "rk4", "splitting2") == _ensembles(fresh, "rk4", "splitting2")
+
+
+def test_two_kernels_of_one_name_are_refused():
+    """Factories give each kernel a tag; two kernels of one name are an error."""
+    from liebody._kernels import _jit
+
+    def factory(k, tag=None):
+        def kernel(x):
+            return x + k
+        return _jit.jit(kernel, tag=tag)
+
+    assert factory(1, tag="one")(1.0) == 2.0 and factory(2, tag="two")(1.0) == 3.0
+    factory(3)
+    with pytest.raises(RuntimeError, match=r"two kernels are named .*kernel.*tag"):
+        factory(4)
+
+
 # ------------------------------------------------------------------ tolerances
 
 

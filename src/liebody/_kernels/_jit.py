@@ -21,12 +21,36 @@ the process, and says so once with a :class:`CacheWarning`: the results are the 
 (the cache only stores compiled code), each new process just compiles again. Setting
 ``NUMBA_CACHE_DIR`` to a writable folder brings the cache back.
 
+Processes that compile at the same time (a Dask ``LocalCluster``'s workers, a
+multiprocessing pool, two test runs) share the cache folder. numba's own cache write
+reads the index, picks a data file name, writes the index and then the data, with no
+lock. Two processes saving different compiled versions of one function (the drivers of
+two families are closures of one function, so they share one index) could both pick the
+same data file, and the index then named one version's code for the other's key. A later
+process would run the wrong kernel and return wrong numbers without a word.
+:class:`LockedCacheFile` closes that race: the whole save runs under a file lock
+(``fcntl.flock`` on ``<index>.lock``), and the data is written before the index names
+it, so an index never points at data that is missing or belongs to another key.
+
+Every kernel has its own name. numba names a compiled function by its module, its
+qualified name and a counter of the compiling process, and a kernel that calls another
+refers to it by that name. Kernels made by a factory (the driver of each family, the
+SIMD loops of each axis) are closures of one qualified name, so two of them compiled in
+two processes could carry the same name, and a third process loading both from the cache
+linked a caller to the wrong one: two ensembles of different methods, each first run in a
+process of its own, gave the second method's bodies the first method's numbers when run
+again in one process. A factory therefore gives each kernel a ``tag``, appended to its
+qualified name (``_runner.<locals>.run_family3``), and :func:`jit` refuses two kernels of
+one name.
+
 numba itself is imported on the first kernel, not with this module, so
 ``liebody.CacheWarning`` can be named (e.g. in a warnings filter) without loading it.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import warnings
 
 from liebody.errors import CacheWarning
@@ -50,27 +74,110 @@ def _no_cache(exc: Exception) -> None:
         CacheWarning, stacklevel=4)
 
 
+@contextlib.contextmanager
+def _file_lock(path: str):
+    """An exclusive inter-process lock held on ``path`` (created if needed); no lock
+    where ``fcntl`` is not available (Windows), where numba's own order is kept."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def _locked_cache_file_class():
+    """:class:`LockedCacheFile`, made on first use (it subclasses a numba class)."""
+    global LockedCacheFile
+    if LockedCacheFile is not None:
+        return LockedCacheFile
+    from numba.core.caching import IndexDataCacheFile
+
+    class _LockedCacheFile(IndexDataCacheFile):
+        """numba's index-and-data cache file with its save made safe between processes:
+        under a lock on ``<index>.lock``, the data is written before the index names it."""
+
+        def save(self, key, data):
+            with _file_lock(self._index_path + ".lock"):
+                overloads = self._load_index()
+                data_name = overloads.get(key)
+                if data_name is None:
+                    existing = set(overloads.values())
+                    number = 1
+                    while self._data_name(number) in existing:
+                        number += 1
+                    data_name = self._data_name(number)
+                    self._save_data(data_name, data)
+                    overloads[key] = data_name
+                    self._save_index(overloads)
+                else:
+                    self._save_data(data_name, data)
+
+    LockedCacheFile = _LockedCacheFile
+    return LockedCacheFile
+
+
+#: The cache file class of every cached kernel (made on the first kernel).
+LockedCacheFile = None
+
+
+def _lock_cache(dispatcher) -> None:
+    """Give a cached kernel the safe cache file (see the module docstring)."""
+    cache = getattr(dispatcher, "_cache", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    cls = _locked_cache_file_class()
+    if cache_file is not None and isinstance(cache_file, cls.__bases__[0]):
+        cache_file.__class__ = cls
+
+
 def _compile(fn, options: dict):
     from numba import njit
 
     if options.get("cache") and _cache_off is not None:
         options = {**options, "cache": False}
     try:
-        return njit(**options)(fn)
+        dispatcher = njit(**options)(fn)
     except RuntimeError as exc:  # raised by numba's cache locator search, and only there
         if not options.get("cache"):
             raise
         _no_cache(exc)
         return njit(**{**options, "cache": False})(fn)
+    if options.get("cache"):
+        _lock_cache(dispatcher)
+    return dispatcher
 
 
-def jit(*args, **extra):
+#: ``module:qualname`` of every kernel made so far (each name once: see the docstring)
+_NAMES: dict[str, object] = {}
+
+
+def _name(fn, tag: str | None):
+    """Append ``tag`` to ``fn``'s qualified name and check that no other kernel has it."""
+    if tag is not None:
+        fn.__qualname__ = f"{fn.__qualname__}_{tag}"
+    key = f"{fn.__module__}:{fn.__qualname__}"
+    if _NAMES.setdefault(key, fn) is not fn:
+        raise RuntimeError(
+            f"two kernels are named {key}: numba would link one for the other when both "
+            f"come from its disk cache; give each kernel a factory makes its own "
+            f"jit(tag=...)")
+    return fn
+
+
+def jit(*args, tag: str | None = None, **extra):
     """``numba.njit`` with :data:`OPTIONS` (plus per-kernel extras such as ``inline``).
 
-    Use as ``@jit`` or ``@jit(inline="always")``. Without a writable cache folder the
-    kernel is compiled without the disk cache (see the module docstring).
+    Use as ``@jit`` or ``@jit(inline="always")``; a kernel made by a factory takes a
+    ``tag`` that makes its name its own (``@jit(tag=f"family{family}")``, see the module
+    docstring). Without a writable cache folder the kernel is compiled without the disk
+    cache.
     """
     options = {**OPTIONS, **extra}
     if args:
-        return _compile(args[0], options)
-    return lambda fn: _compile(fn, options)
+        return _compile(_name(args[0], tag), options)
+    return lambda fn: _compile(_name(fn, tag), options)

@@ -401,9 +401,10 @@ def _axis_kernel(axis: int, recurring: bool, general: bool):
     OA, OB, OC = ms[axis], ms[(axis + 1) % 3], ms[(axis + 2) % 3]
     OP, OU, OV = qs[axis], qs[(axis + 1) % 3], qs[(axis + 2) % 3]
     trig = sincos if general else sincos_small
+    tag = f"axis{axis}_{'recurring' if recurring else 'plain'}_{'general' if general else 'small'}"
 
     if recurring:
-        @jit
+        @jit(tag=tag)
         def kernel(buf, rate, nb, tau):
             ht = 0.5 * tau
             for i in range(nb):
@@ -423,7 +424,7 @@ def _axis_kernel(axis: int, recurring: bool, general: bool):
                 buf[OU + i] = u + fma(cm2, u, s2 * v)
                 buf[OV + i] = v + fma(cm2, v, -(s2 * u))
     else:
-        @jit
+        @jit(tag=tag)
         def kernel(buf, rate, nb, tau):
             ht = 0.5 * tau
             for i in range(nb):
@@ -451,7 +452,7 @@ def _sphere_kernel(general: bool):
     form (:func:`~liebody._kernels.flows.sphere_flow`): ``(cos(|r|/2) - 1, v)`` with
     ``v = sin(|r|/2) r / |r|``, normalised by one Newton step."""
 
-    @jit
+    @jit(tag="general" if general else "small")
     def kernel(buf, rate, nb, tau):
         for i in range(nb):
             a = tau * rate[i]
@@ -952,7 +953,7 @@ def _simd_runner(family: int, diag: bool = False):
     """The SIMD driver of one family for many bodies (``family``, ``diag``: compile-time
     constants); the signature and semantics of ``driver.BATCH_RUNNERS[family]``."""
 
-    @jit
+    @jit(tag=f"family{family}_diag" if diag else f"family{family}")
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
         ns = kinds.shape[0]
