@@ -256,9 +256,15 @@ def fixed_costs(cfg: dict) -> dict:
     fresh = [pb.L0 * (1.0 + 1e-3 * rng.standard_normal(3)) for _ in range(256)]
     k = iter(range(10**12))
 
-    def new_state():
+    def new_state(method="splitting2"):
         return liebody.integrate(pb.scene, L0=fresh[next(k) % 256], dt=h, steps=1,
-                                 method="splitting2")
+                                 method=method)
+
+    top_fresh = [top.L0 * (1.0 + 1e-3 * rng.standard_normal(3)) for _ in range(256)]
+
+    def new_top_state():
+        return liebody.integrate(top.scene, q0=top.q0, L0=top_fresh[next(k) % 256],
+                                 dt=cfg["h_top"], steps=1, method="splitting2")
 
     s_free = liebody.Stepper(pb.scene, q0=pb.q0, L0=pb.L0, dt=h, method="splitting2")
     s_top = liebody.Stepper(top.scene, q0=top.q0, L0=top.L0, dt=cfg["h_top"],
@@ -275,7 +281,13 @@ def fixed_costs(cfg: dict) -> dict:
                            lambda: liebody.integrate(pb.scene, q0=pb.q0, L0=pb.L0, dt=h,
                                                      steps=1, method="splitting2")),
         "integrate_new_state": ("integrate(steps=1), free body, splitting2, a new initial "
-                                "state each call (the plan is made afresh)", new_state),
+                                "state each call (the axis ordering is chosen for each "
+                                "orbit)", new_state),
+        "integrate_new_state_fixed": ("integrate(steps=1), free body, no_squish (a fixed "
+                                      "ordering), a new initial state each call",
+                                      lambda: new_state("no_squish")),
+        "integrate_new_state_top": ("integrate(steps=1), heavy top, splitting2, a new "
+                                    "initial state each call", new_top_state),
         "integrate_exact": ("integrate(steps=1), free body, default method (exact flow)",
                             lambda: liebody.integrate(pb.scene, L0=pb.L0, dt=h, steps=1)),
         "integrate_user_torque": ("integrate(steps=1), user torque t(t, q, L), splitting2",

@@ -149,17 +149,23 @@ class Method:
         """The method's stage table for one body: ``scene``, initial momentum ``m0`` ``(3,)``
         and step ``h`` (``params`` has a body axis of length 1).
 
-        Plans are cached per (method, scene object, ``h``, ``m0``), so repeated calls
-        with one scene skip the set-up; a cached plan is shared: never write to its
-        arrays (copy ``params`` first, as the drivers' callers do for the controls).
+        Plans are cached per (method, scene object, ``h``), and also per ``m0`` when the
+        recipe read the initial state to build it (an axis ordering chosen for the
+        orbit, Hairer-Vilmart's modified moments): repeated calls with one scene skip
+        the set-up, and so do calls from new initial states for methods whose plan does
+        not depend on them. A cached plan is shared: never write to its arrays (copy
+        ``params`` first, as the drivers' callers do for the controls).
         """
         m0 = np.asarray(m0, dtype=float).reshape(3)
-        key = (self.name, id(scene), float(h), m0.tobytes())
-        entry = _PLANS.get(key)
-        if entry is not None and entry[0] is self and entry[1] is scene:
-            _PLANS.move_to_end(key)
-            return entry[2]
-        (_, plan), = self.plans(scene, m0.reshape(1, 3), h)
+        any_state = (self.name, id(scene), float(h))
+        for key in (any_state, (*any_state, m0.tobytes())):
+            entry = _PLANS.get(key)
+            if entry is not None and entry[0] is self and entry[1] is scene:
+                _PLANS.move_to_end(key)
+                return entry[2]
+        bodies = P.Bodies.of(scene, m0.reshape(1, 3))
+        (_, plan), = self._plans_of(bodies, h)
+        key = (*any_state, m0.tobytes()) if bodies.orbit_read[0] else any_state
         _PLANS[key] = (self, scene, plan)  # the scene is kept: its id stays unique
         if len(_PLANS) > PLAN_CACHE_SIZE:
             _PLANS.popitem(last=False)
@@ -169,8 +175,11 @@ class Method:
         """The stage tables for a batch of bodies (``m0`` ``(N, 3)``, and the scene's
         parameters broadcast against it): one per group of bodies that share the step's
         structure, with the indices of its bodies."""
+        return self._plans_of(P.Bodies.of(scene, m0), h)
+
+    def _plans_of(self, bodies: P.Bodies, h: float) -> list[tuple[np.ndarray, P.Plan]]:
         try:
-            return P.plan_groups(self.recipe, P.Bodies.of(scene, m0), float(h))
+            return P.plan_groups(self.recipe, bodies, float(h))
         except ValueError as exc:  # a recipe's refusal: say which method refused
             raise ValueError(f"{self.name}: {exc}") from None
 

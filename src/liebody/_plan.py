@@ -56,12 +56,22 @@ class Bodies:
     """
 
     moments: np.ndarray  # (N, 3)
-    m0: np.ndarray  # (N, 3)
+    momenta: np.ndarray  # (N, 3): the initial momenta, read through m0
     weight_arm: np.ndarray  # (N, 3): the torque constants (uniform gravity: M g cm)
     eps: np.ndarray  # (N,): dissipation strength
     capabilities: object
     free_flow: str
     torque_code: int
+    #: set once a recipe has read the initial momenta (shared with the bodies taken)
+    orbit_read: list = field(default_factory=lambda: [False], repr=False, compare=False)
+
+    @property
+    def m0(self) -> np.ndarray:
+        """The initial momenta ``(N, 3)``. Reading them marks the plan as depending on
+        the initial state (:attr:`orbit_read`): a plan that never reads them is the
+        same for every initial state and is cached without it."""
+        self.orbit_read[0] = True
+        return self.momenta
 
     @classmethod
     def of(cls, scene, m0) -> Bodies:
@@ -86,7 +96,7 @@ class Bodies:
         return self.moments.shape[0]
 
     def take(self, idx) -> Bodies:
-        out = replace(self, moments=self.moments[idx], m0=self.m0[idx],
+        out = replace(self, moments=self.moments[idx], momenta=self.momenta[idx],
                       weight_arm=self.weight_arm[idx], eps=self.eps[idx])
         memo = self.__dict__.get("_orderings")
         if memo:  # the orbits' ordering choices, for the bodies taken
@@ -348,7 +358,9 @@ def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
     use_sym = (sym != ASYMMETRIC) & ((b.free_flow != "axes") | (sym == SPHERICAL))
     choice = np.where(use_sym, _DRIFT_SYMMETRIC,
                       _DRIFT_EXACT if b.free_flow == "exact" else _DRIFT_AXES)
-    if ordering is None:
+    if not np.any(choice == _DRIFT_AXES):
+        order = np.zeros(len(b), dtype=np.int64)  # no body's drift needs an ordering
+    elif ordering is None:
         order, _ = b.orderings(_ordering.axis_pieces)
     else:
         order = np.full(len(b), _ordering.ORDERINGS.index(tuple(ordering)))

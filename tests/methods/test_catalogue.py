@@ -134,3 +134,34 @@ def test_every_method_declares_what_it_handles():
     for m in liebody.methods():
         assert m.supports(free)
         assert isinstance(m.handles, liebody.Handles)
+
+
+def _plan_arrays(plan):
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params)
+
+
+@pytest.mark.parametrize(("name", "scene", "per_state"), [
+    ("rk4", "free", False), ("rattle", "free", False), ("no_squish", "free", False),
+    ("splitting4", "top", False), ("splitting2", "top", False),  # a symmetric top's drift
+    ("splitting2", "free", True), ("dmv4", "free", True),  # ordering; modified moments
+])
+def test_plans_are_shared_between_initial_states_when_they_do_not_depend_on_them(
+        name, scene, per_state):
+    """A plan whose recipe never read the initial momenta is cached for every initial
+    state (a new state costs no set-up); one that did (the axis ordering chosen for the
+    orbit, Hairer-Vilmart's modified moments) is made per state. Either way a cached plan
+    equals the plan made afresh."""
+    scenes = {"free": liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5])),
+              "top": liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0,
+                                      [0.0, 0.0, 1.0], g=1.0)}
+    sc = scenes[scene]
+    m = _methods.get(name)
+    a, b = np.array([0.3, 1.0, 0.2]), np.array([0.9, -0.1, 0.4])  # orbits about axes 2, 1
+    first = m.plan(sc, a, 0.01)
+    second = m.plan(sc, b, 0.01)
+    assert (second is not first) == per_state
+    (_, fresh), = m.plans(sc, b[None], 0.01)
+    for x, y in zip(_plan_arrays(second), _plan_arrays(fresh), strict=True):
+        np.testing.assert_array_equal(x, y)
+    assert second.info.keys() == fresh.info.keys()
+    assert m.plan(sc, a, 0.01) is first  # and the first state's plan is still cached
