@@ -662,7 +662,7 @@ def plot(summary: dict, plt):
         axc.set_yticks(yc)
         axc.set_yticklabels(["scene set-up (1st numba call)", *names], fontsize=8)
         axc.invert_yaxis()
-        axc.legend(fontsize=8, loc="lower right")
+        axc.legend(fontsize=8, loc="center right")
     else:
         axc.text(0.5, 0.5, "compile-time measurement failed (see the JSON)", ha="center",
                  transform=axc.transAxes)
