@@ -180,7 +180,8 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> 
     if n_samples <= SHORT_TIMES_SAMPLES:  # the short runs of control loops and optimisers
         t.flags.writeable = False
         if len(_SHORT_TIMES) >= SHORT_TIMES_KEPT:
-            _SHORT_TIMES.pop(next(iter(_SHORT_TIMES)))
+            # (None: another thread may have dropped the same oldest entry)
+            _SHORT_TIMES.pop(next(iter(_SHORT_TIMES)), None)
         _SHORT_TIMES[key] = t
     return t
 

@@ -19,6 +19,7 @@ Example: a fixed-ordering Strang splitting, integrable at once by
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections import OrderedDict
 from collections.abc import Iterator
@@ -161,7 +162,8 @@ class Method:
         for key in (any_state, (*any_state, m0.tobytes())):
             entry = _PLANS.get(key)
             if entry is not None and entry[0] is self and entry[1] is scene:
-                _PLANS.move_to_end(key)
+                with contextlib.suppress(KeyError):  # evicted meanwhile by another thread
+                    _PLANS.move_to_end(key)
                 return entry[2]
         bodies = P.Bodies.of(scene, m0.reshape(1, 3))
         (_, plan), = self._plans_of(bodies, h)

@@ -352,3 +352,40 @@ def test_kernels_release_the_gil_and_threads_agree(hlw):
     for tr in out:
         np.testing.assert_array_equal(tr.q, serial.q)
 
+
+
+def test_short_calls_from_many_threads_share_the_caches_safely(monkeypatch):
+    """Threads making many short calls with new steps each time fill and evict the plan
+    and sample-time caches at once (small caches here): no call fails, and every result
+    is the serial one."""
+    from liebody import _methods
+
+    monkeypatch.setattr(_methods, "PLAN_CACHE_SIZE", 4)
+    monkeypatch.setattr(_integrate, "SHORT_TIMES_KEPT", 4)
+    scene = _free()
+    L0 = np.array([0.3, 1.0, 0.2])
+    dts = [0.01 * (1 + k / 64) for k in range(64)]
+    methods = ["rk4", "splitting2", "rattle"]
+
+    def call(k):
+        return liebody.integrate(scene, L0=L0, dt=dts[k % 64], steps=3 + k % 5,
+                                 method=methods[k % 3]).q[-1]
+
+    serial = [call(k) for k in range(400)]
+    out, errors = [None] * 400, []
+
+    def work(start):
+        try:
+            for k in range(start, 400, 4):
+                out[k] = call(k)
+        except Exception as exc:  # any failure fails the test below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert not errors, errors
+    for a, b in zip(out, serial, strict=True):
+        np.testing.assert_array_equal(a, b)
