@@ -215,8 +215,27 @@ def _best(pieces_of, moments: tuple, u0: tuple) -> tuple[tuple[int, int, int], f
     The same arithmetic as :func:`best_orderings` (one body), so a body of an ensemble
     gets the choice it gets alone.
     """
-    k, scores = _best_rows(pieces_of, np.array([moments]), np.sqrt(np.array([u0])))
+    k, scores = _best_rows(pieces_of, np.array([moments]), np.sqrt(np.array([u0])),
+                           _one_orbit(moments, u0), _one_body_h3(pieces_of, moments))
     return ORDERINGS[int(k[0])], float(scores[0])
+
+
+@functools.lru_cache(maxsize=256)
+def _one_orbit(moments: tuple, u0: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`orbit_segments` of one body, shared by the splitting families (read-only)."""
+    out = orbit_segments(np.array([moments]), np.sqrt(np.array([u0])))
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=256)
+def _one_body_h3(pieces_of, moments: tuple) -> np.ndarray:
+    """:func:`h3_vector` of every ordering of one body: it depends on the moments only, so
+    a new initial state of the same body reuses it (read-only)."""
+    V = h3_vector(_levels(pieces_of, np.array([moments])))
+    V.flags.writeable = False
+    return V
 
 
 def _key(moments, m0) -> tuple[tuple, tuple]:
@@ -269,9 +288,12 @@ def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
     return _best_rows(pieces_of, moments, np.abs(m0))
 
 
-def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray):
-    samples, point = orbit_segments(moments, m0)
-    V = h3_vector(_levels(pieces_of, moments))  # (6, N, 3)
+def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray, segments=None, V=None):
+    """The best ordering of each body and its score; ``segments`` (the orbits' samples)
+    and ``V`` (the ``H3`` vectors) may be given when known, with the same values."""
+    samples, point = orbit_segments(moments, m0) if segments is None else segments
+    if V is None:
+        V = h3_vector(_levels(pieces_of, moments))  # (6, N, 3)
     # H3 is homogeneous of degree 4 in m: evaluate it on m / |m0| and scale back by
     # |m0|^2 twice, so that moments and momenta near the ends of float64 do not overflow
     g2 = np.sum(m0 * m0, axis=-1)
