@@ -176,6 +176,10 @@ class TorqueModel:
         return f"{name}(t, q, L{', u' if self.controls else ''})"
 
 
+#: the torque model of a scene without torque (immutable, shared)
+_NO_TORQUE = TorqueModel()
+
+
 class Scene:
     """Base class of the scenes; see the module docstring for the contract."""
 
@@ -231,7 +235,7 @@ class Scene:
 
     def torque_model(self) -> TorqueModel:
         """How the kernels evaluate the torque (none unless overridden)."""
-        return TorqueModel.none()
+        return _NO_TORQUE
 
 
 def _init_body(scene: Scene, body, free_flow: str) -> None:
@@ -425,6 +429,9 @@ class TorqueBody(Scene):
 
     @property
     def capabilities(self) -> Capabilities:
+        return _memo(self, "capabilities", self._capabilities)
+
+    def _capabilities(self) -> Capabilities:
         deps = {"time", "orientation"} | (set() if self.orientation_only else {"momentum"})
         conservative = self.potential_fn is not None and self.orientation_only
         return Capabilities(torque=frozenset(deps), conservative=conservative)
@@ -438,7 +445,8 @@ class TorqueBody(Scene):
         return vals.reshape(q.shape[:-1])
 
     def torque_model(self) -> TorqueModel:
-        return TorqueModel.user(self.torque, self.controls)
+        return _memo(self, "torque_model", lambda: TorqueModel.user(self.torque,
+                                                                     self.controls))
 
 
 @dataclass(frozen=True, init=False, eq=False)
