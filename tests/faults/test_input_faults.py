@@ -198,6 +198,22 @@ def test_kernels_cached_by_different_processes_are_not_mixed_up(tmp_path):
     assert _ensembles(shared, "rk4", "splitting2") == _ensembles(fresh, "rk4", "splitting2")
 
 
+def test_a_cache_folder_that_refuses_locks_still_saves(tmp_path, monkeypatch):
+    """A file system without flock (some network mounts): the save goes on unlocked
+    instead of failing the compile."""
+    import fcntl
+
+    from liebody._kernels import _jit
+
+    def refuse(fd, op):
+        raise OSError(38, "Function not implemented")
+
+    monkeypatch.setattr(fcntl, "flock", refuse)
+    cls = _jit._locked_cache_file_class()
+    cls(str(tmp_path), "kernel-1", (0.0, 1)).save(("key", "A"), "code of A")
+    assert cls(str(tmp_path), "kernel-1", (0.0, 1)).load(("key", "A")) == "code of A"
+
+
 def test_two_kernels_of_one_name_are_refused():
     """Factories give each kernel a tag; two kernels of one name are an error."""
     from liebody._kernels import _jit

@@ -76,16 +76,22 @@ def _no_cache(exc: Exception) -> None:
 
 @contextlib.contextmanager
 def _file_lock(path: str):
-    """An exclusive inter-process lock held on ``path`` (created if needed); no lock
-    where ``fcntl`` is not available (Windows), where numba's own order is kept."""
+    """An exclusive inter-process lock held on ``path`` (created if needed). No lock where
+    ``fcntl`` is not available (Windows) or the file system refuses it: the save then
+    goes on unlocked, data before index, rather than fail the compile."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX
         yield
         return
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:  # no lock file here: save as numba does (data first still)
+        yield
+        return
+    try:
+        with contextlib.suppress(OSError):  # a file system without flock (network mounts)
+            fcntl.flock(fd, fcntl.LOCK_EX)
         yield
     finally:
         os.close(fd)  # releases the lock
