@@ -192,6 +192,12 @@ class Scene:
     #: number of control inputs ``u`` the torque takes (:class:`ControlledBody`)
     controls: int = 0
 
+    def __getstate__(self) -> dict:
+        """The parameters, without what the scene memoised: a user torque's model holds
+        the address of a callback compiled in this process, meaningless in another
+        (a Dask worker unpickling the scene makes its own)."""
+        return {k: v for k, v in vars(self).items() if not k.startswith(_MEMO)}
+
     def take(self, idx) -> Scene:
         """The scene of bodies ``idx`` (a slice or an index array) of a batched scene;
         unbatched parameters are shared. Used to split an ensemble into chunks."""
