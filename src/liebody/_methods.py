@@ -216,13 +216,14 @@ COMPOSITIONS: dict[str, tuple[float, ...]] = {
 }
 
 
-def check_composition(coefficients, order: float) -> tuple[float, ...]:
-    """Validate composition coefficients for a symmetric second-order base.
+def check_composition(coefficients, order: float, base_order: int = 2) -> tuple[float, ...]:
+    """Validate composition coefficients for a symmetric base of order ``base_order``.
 
-    They must be finite, palindromic, sum to 1, and for a declared order ``p >= 4``
-    satisfy the necessary power conditions ``sum g^(2k+1) = 0`` for ``k = 1 .. p/2 - 1``
-    (order 4 needs nothing more; higher orders need further conditions on nested sums,
-    which the observed-order tests check).
+    They must be finite, palindromic, sum to 1, and for a declared order ``p`` above the
+    base's satisfy the necessary power conditions ``sum g^j = 0`` for the odd ``j`` from
+    ``base_order + 1`` to ``p - 1`` (Yoshida 1990; Hairer, Lubich & Wanner 2006, sect.
+    V.3.2): enough for ``p = base_order + 2``; higher orders need further conditions on
+    nested sums, which the observed-order tests check.
     """
     g = np.asarray(coefficients, dtype=float)
     if g.ndim != 1 or g.size == 0 or not np.all(np.isfinite(g)):
@@ -231,11 +232,11 @@ def check_composition(coefficients, order: float) -> tuple[float, ...]:
         raise ValueError("coefficients must be palindromic (a symmetric composition)")
     if abs(g.sum() - 1.0) > 1e-14:
         raise ValueError(f"coefficients must sum to 1 (consistency), got {g.sum()!r}")
-    for k in range(1, int(order) // 2):
-        p = 2 * k + 1
+    for p in range(int(base_order) + 1, int(order), 2):
         if abs(float(np.sum(g**p))) > 1e-13 * float(np.sum(np.abs(g) ** p)):
-            raise ValueError(f"coefficients do not give order {order}: sum g^{p} = "
-                             f"{float(np.sum(g**p)):.3e} must vanish")
+            raise ValueError(f"coefficients do not give order {order} from a base of order "
+                             f"{base_order}: sum g^{p} = {float(np.sum(g**p)):.3e} must "
+                             f"vanish")
     return tuple(float(v) for v in g)
 
 
@@ -263,7 +264,7 @@ def register(method: Method, *, replace: bool = False) -> Method:
         raise TypeError(f"recipe must be a liebody._plan.Recipe, got "
                         f"{type(method.recipe).__name__}")
     if isinstance(method.recipe, P.Composition) and method.reversible:
-        check_composition(method.recipe.coefficients, method.order)
+        check_composition(method.recipe.coefficients, method.order, method.recipe.base_order)
     _REGISTRY[method.name] = method
     return method
 
@@ -423,8 +424,10 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
         the classical order theory: ``"splitting2"``, ``"sr2"``, ``"rattle"``, ...).
     order
         The order to declare. Default: the order the coefficients prove for a symmetric
-        second-order base (2, or 4 when ``sum g^3 = 0``); a higher order must be
-        declared, and is checked against the power conditions.
+        base of order ``p`` (``p``, or ``p + 2`` when they are palindromic and
+        ``sum g^(p+1) = 0``). A higher order must be declared, and is checked against
+        the necessary power conditions ``sum g^j = 0`` (odd ``j`` from ``p + 1``); a
+        composition that is not symmetric cannot declare more than ``p``.
     description, replace
         As for :func:`register`.
 
@@ -451,16 +454,25 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
         raise ValueError(f"base {base_m.name!r} cannot be composed: compose a splitting or "
                          f"RATTLE (a method that steps by stages)")
     report = composition_report(coefficients)
-    bound = min(report.order_bound, 4) if base_m.order == 2 and base_m.reversible else \
-        int(base_m.order)
-    if order is None:
-        order = bound
-    elif report.palindromic and base_m.reversible:
-        check_composition(report.coefficients, order)
+    p = int(base_m.order)
+    symmetric = report.palindromic and base_m.reversible
+    if order is None:  # what the coefficients prove: p, or p + 2 when sum g^(p+1) = 0
+        g = np.asarray(report.coefficients)
+        gains = symmetric and p % 2 == 0 and abs(float(math.fsum(g ** (p + 1)))) <= \
+            1e-13 * float(np.sum(np.abs(g) ** (p + 1)))
+        order = p + 2 if gains else p
     if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
         raise ValueError(f"order must be a positive integer, got {order!r}")
+    if symmetric:
+        check_composition(report.coefficients, order, p)
+    elif order > p:
+        raise ValueError(
+            f"order {order} cannot be checked: only a symmetric composition (palindromic "
+            f"coefficients) of a symmetric base gains order by the power conditions; "
+            f"declare at most the base's order {p}, or measure it with "
+            f"liebody.testing.observed_order and register a Method yourself")
     method = Method(
-        name, P.Composition(base_m.recipe, report.coefficients), int(order), "composition",
+        name, P.Composition(base_m.recipe, report.coefficients, p), int(order), "composition",
         base_m.symplectic, base_m.reversible and report.palindromic, base_m.keeps_casimir,
         False, base_m.handles, f"{len(report.coefficients)} {base_m.name} steps",
         description=(description or f"User composition of {base_m.name}.") + f" [{report}]")
@@ -528,6 +540,12 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         order = 2 if sym else 1
     if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
         raise ValueError(f"order must be a positive integer, got {order!r}")
+    if not sym and order > 1:
+        raise ValueError(
+            f"order {order} cannot be checked for a sequence that is not palindromic (a "
+            f"non-symmetric splitting of these flows is first order unless its fractions "
+            f"satisfy further conditions); declare order=1, or measure the order with "
+            f"liebody.testing.observed_order and register a Method yourself")
     torque = frozenset({"time", "orientation"}) if "kick" in parts else frozenset()
     handles = Handles(torque, dissipation="damp" in parts)
     rotations = sum(1 for n, _, _ in recipe.flows if n in ("T1", "T2", "T3"))

@@ -423,6 +423,9 @@ class Recipe:
 
     #: composition coefficients applied to the base (``(1.0,)`` for a base method)
     coefficients: tuple[float, ...] = (1.0,)
+    #: whether the stages' parameters depend on the step ``h`` (not only their lengths):
+    #: a composition then builds each substep for its own length
+    step_dependent: bool = False
 
     def keys(self, b: Bodies, h: float) -> np.ndarray:
         return np.zeros(len(b), dtype=np.int64)
@@ -578,6 +581,11 @@ class DMVFlow(FreeFlowRecipe):
         if self.order not in (2, 4, 6, 8, 10):
             raise ValueError(f"DMV order must be 2, 4, 6, 8 or 10, got {self.order}")
 
+    @property
+    def step_dependent(self) -> bool:
+        """The preprocessed orders' modified moments depend on ``h``."""
+        return self.order > 2
+
     def free(self, b, h, key):
         if self.order == 2:
             return [Stage(S.DMV, 1.0, 1.0, moments=b.moments)], {}
@@ -611,7 +619,8 @@ class ExactFlow(FreeFlowRecipe):
 
 @dataclass(frozen=True)
 class Composition(Recipe):
-    """A symmetric composition ``S(g_s h) ... S(g_1 h)`` of a second-order base recipe.
+    """A symmetric composition ``S(g_s h) ... S(g_1 h)`` of a base recipe of order
+    ``base_order`` (2 for the built-in compositions).
 
     ``coefficients`` are the full list of fractions ``g_i`` of the step given to the
     base, in order (palindromic; ``sum g = 1``).
@@ -619,13 +628,25 @@ class Composition(Recipe):
 
     base: Recipe
     coefficients: tuple[float, ...]
+    base_order: int = 2
 
     def keys(self, b, h):
         return self.base.keys(b, h)
 
     def stages(self, b, h, key):
+        if self.base.step_dependent:  # each substep built for its own length g h
+            out, info = [], None
+            for g in self.coefficients:
+                base, sub = self.base.stages(b, g * h, key)
+                out += [st.scaled(g) for st in base]
+                info = sub if info is None else info
+            return out, info
         base, info = self.base.stages(b, h, key)
         return compose(base, self.coefficients), info
+
+    @property
+    def step_dependent(self) -> bool:
+        return self.base.step_dependent
 
 
 #: the sub-flows a :class:`FlowSequence` is made of

@@ -126,3 +126,38 @@ def test_a_registered_method_is_benchmarked(registered, monkeypatch):
     assert calls and calls[0]["quick"]
     for key in ("hlw", "top"):
         assert "plugin_triple_jump" in problems()[key].methods()
+
+
+def test_compositions_of_a_higher_order_base(registered):
+    """The power conditions start above the base's order: a symmetric composition of a
+    fourth-order base keeps order 4 by itself and gains order 6 when sum g^5 = 0 (the
+    triple jump built for order 4 -> 6, Yoshida 1990)."""
+    halves = liebody.register_composition("user_dmv4_halves", [0.5, 0.5], base="dmv4")
+    registered.append(halves.name)
+    assert halves.order == 4
+    g = 1.0 / (2.0 - 2.0 ** (1.0 / 5.0))
+    six = liebody.register_composition("user_jump6", [g, 1.0 - 2.0 * g, g],
+                                       base="splitting4", order=6)
+    registered.append(six.name)
+    default = liebody.register_composition("user_jump6_default", [g, 1.0 - 2.0 * g, g],
+                                           base="splitting4")
+    registered.append(default.name)
+    assert six.order == default.order == 6
+    assert testing.observed_order(halves, "hlw").rounded == 4
+    assert testing.observed_order(six, "hlw").rounded == 6
+    with pytest.raises(ValueError, match="from a base of order 4: sum g\\^5"):
+        liebody.register_composition("user_bad", TRIPLE_JUMP, base="splitting4", order=6)
+
+
+def test_orders_that_cannot_be_checked_are_refused(registered):
+    """A composition that is not symmetric cannot claim more than its base's order, nor a
+    splitting that is not palindromic more than order 1 (Lie-Trotter is first order)."""
+    with pytest.raises(ValueError, match="order 6 cannot be checked: only a symmetric"):
+        liebody.register_composition("user_bad", [0.3, 0.7], order=6)
+    with pytest.raises(ValueError, match="order 2 cannot be checked for a sequence"):
+        liebody.register_splitting("user_bad", [("T1", 1.0), ("T2", 1.0), ("T3", 1.0)],
+                                   order=2)
+    assert "user_bad" not in liebody.methods()
+    m = liebody.register_composition("user_asym", [0.3, 0.7])
+    registered.append(m.name)
+    assert m.order == 2 and not m.reversible
