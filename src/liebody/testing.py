@@ -93,6 +93,12 @@ class Problem:
     _solution: Callable = field(repr=False)
     _spread: Callable | None = field(default=None, repr=False)
 
+    def __post_init__(self) -> None:
+        for name in ("q0", "L0"):  # shared by every caller: read-only copies
+            a = np.array(getattr(self, name), dtype=float)
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+
     def reference(self, t) -> tuple[np.ndarray, np.ndarray]:
         """The reference state at time(s) ``t`` (``>= 0``).
 
@@ -398,7 +404,7 @@ def run_step(step: Callable, problem: Problem, *, dt: float, steps: int,
         ``problem.scene`` (``q`` scalar-first, body -> space; ``L`` body frame), plain
         Python or a numba-compiled function.
     problem
-        A :class:`Problem` (its scene and initial state are used).
+        A :class:`Problem` or its name (its scene and initial state are used).
     dt, steps
         Step size (> 0) and number of steps (>= 1).
     save_every
@@ -412,6 +418,7 @@ def run_step(step: Callable, problem: Problem, *, dt: float, steps: int,
     """
     from liebody.trajectory import Trajectory
 
+    problem = _lookup(problem)
     dt = _positive("dt", dt)
     steps = _count("steps", steps)
     save_every = _count("save_every", save_every)
@@ -813,13 +820,34 @@ def _worst(dev: np.ndarray, t: np.ndarray) -> tuple[float, float, str]:
     return float(dev[k]), float(t[k[-1]]), where
 
 
+def _incomplete(traj) -> list[str]:
+    """A failure line for a run that did not complete (one body, or bodies of an
+    ensemble): its invariants are then checked on the samples before the failure."""
+    status = np.asarray(traj.status)
+    if status.ndim == 0:
+        if str(status) == "complete":
+            return []
+        at = "" if traj.failed_at is None else f" at t = {float(traj.failed_at):.6g}"
+        return [f"the run did not complete: {status}{at}"]
+    bad = status != "complete"
+    if not bad.any():
+        return []
+    i = int(np.argmax(bad))
+    at = np.asarray(traj.failed_at, dtype=float)[i] if traj.failed_at is not None else np.nan
+    when = f" at t = {at:.6g}" if np.isfinite(at) else ""
+    return [f"{int(bad.sum())} of {bad.size} bodies did not complete (e.g. body {i}: "
+            f"{status[i]}{when})"]
+
+
 def assert_invariants(traj, *, qnorm: float | None = 1e-10, casimir="auto",
                       spatial_L="auto", energy="auto") -> None:
     """Assert that a trajectory keeps the invariants of its scene.
 
     Each check compares the largest deviation over the samples with a tolerance;
     ``None`` skips a check. A failure raises one ``AssertionError`` listing every
-    broken invariant, by how much, at what time (and for which body of an ensemble).
+    broken invariant, by how much, at what time (and for which body of an ensemble). A
+    run that did not complete (``status`` other than ``"complete"``: a blow-up, a failed
+    solve, an interrupt) fails too; its samples before the failure are checked.
 
     Parameters
     ----------
@@ -843,12 +871,18 @@ def assert_invariants(traj, *, qnorm: float | None = 1e-10, casimir="auto",
     """
     from liebody.scenes import HeavyTop
 
+    qnorm = None if qnorm is None else _positive("qnorm", qnorm)
+    casimir = casimir if casimir is None or casimir == "auto" else _positive("casimir", casimir)
+    spatial_L = (spatial_L if spatial_L is None or spatial_L == "auto"
+                 else _positive("spatial_L", spatial_L))
+    if not (energy is None or (isinstance(energy, str) and energy in ("auto", "bounded"))):
+        energy = _positive("energy", energy)
     caps = traj.scene.capabilities
     t = np.asarray(traj.t)
     q, L = np.asarray(traj.q), np.asarray(traj.L)
-    fails = []
     if len(t) == 0:
         raise ValueError("the trajectory has no samples")
+    fails = _incomplete(traj)
 
     if qnorm is not None:
         dev = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
@@ -894,10 +928,16 @@ def assert_invariants(traj, *, qnorm: float | None = 1e-10, casimir="auto",
         E = np.asarray(traj.energy)
         if energy == "bounded":
             for b, Eb in enumerate(E.reshape(-1, E.shape[-1])):
+                tb = t
+                if not np.isfinite(Eb).all():  # a failed body (reported above): check its
+                    n = int(np.argmin(np.isfinite(Eb)))  # samples before the failure
+                    if n < 64:
+                        continue
+                    Eb, tb = Eb[:n], t[:n]
                 if Eb.size < 64:
                     raise ValueError("energy='bounded' needs at least 64 samples; give a "
                                      "tolerance instead")
-                verdict = energy_drift(t=t, energy=Eb)
+                verdict = energy_drift(t=tb, energy=Eb)
                 if verdict.kind == "drift":
                     who = f" of body {b}" if E.ndim == 2 else ""
                     fails.append(f"the energy{who} drifts: {verdict}")

@@ -175,12 +175,14 @@ class Trajectory:
 
     def __repr__(self) -> str:
         span = (f"t=[{self.t[0] if len(self) else 0:g}, {self.t[-1] if len(self) else 0:g}]")
+        method = (self.method.name if self.method is not None  # a user step (run_step)
+                  else self.info.get("step", "user step"))
         if self.n_bodies is not None:
             failed = int(np.sum(np.isfinite(np.asarray(self.failed_at, dtype=float))))
             state = f"{failed} failed" if failed else str(np.asarray(self.status).flat[0])
-            return (f"Trajectory(method={self.method.name!r}, dt={self.dt:g}, "
+            return (f"Trajectory(method={method!r}, dt={self.dt:g}, "
                     f"bodies={self.n_bodies}, samples={len(self)}, {span}, {state})")
         status = (f"failed at t={self.failed_at:g}" if self.failed_at is not None
                   else self.status)
-        return (f"Trajectory(method={self.method.name!r}, dt={self.dt:g}, samples={len(self)}, "
+        return (f"Trajectory(method={method!r}, dt={self.dt:g}, samples={len(self)}, "
                 f"{span}, {status})")

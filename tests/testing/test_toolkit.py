@@ -323,3 +323,41 @@ def test_a_numba_compiled_step_function():
 
     found = testing.assert_order(midpoint, p, 2)
     assert found.reliable
+
+
+def test_assert_invariants_fails_runs_that_did_not_complete():
+    """A run that failed is not a pass, whatever its samples before the failure (before:
+    a failed body of an ensemble was skipped, and a failed one-body run passed)."""
+    p = testing.problem("hlw")
+
+    def dies(q, L, h, n=[0]):  # noqa: B006 - a counter kept between calls
+        n[0] += 1
+        return (q, L) if n[0] < 500 else (q * np.nan, L)
+
+    traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
+    assert traj.status == "failed"
+    with pytest.raises(AssertionError, match=r"the run did not complete: failed at t = "):
+        testing.assert_invariants(traj, energy=None)
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    with pytest.warns(RuntimeWarning):
+        ens = liebody.integrate(scene, L0=[[0, 0.1, 0.05], [0, 50, 3], [0, 0.2, 0.01]],
+                                dt=0.1, steps=200, method="rattle")
+    for energy in ("auto", 1e-12, None):
+        with pytest.raises(AssertionError, match=r"1 of 3 bodies did not complete "
+                                                 r"\(e\.g\. body 1"):
+            testing.assert_invariants(ens, energy=energy)
+    assert repr(traj).startswith("Trajectory(method='dies'")
+    assert p.L0.flags.writeable is False and p.q0.flags.writeable is False
+
+
+@pytest.mark.parametrize(("kwargs", "error", "words"), [
+    ({"casimir": "x"}, TypeError, "casimir must be a number"),
+    ({"qnorm": -1.0}, ValueError, "qnorm must be finite and > 0"),
+    ({"spatial_L": 0.0}, ValueError, "spatial_L must be finite and > 0"),
+    ({"energy": "drift"}, TypeError, "energy must be a number"),
+])
+def test_assert_invariants_checks_its_tolerances(kwargs, error, words):
+    p = testing.problem("hlw")
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.1, steps=100, method="rattle")
+    with pytest.raises(error, match=words):
+        testing.assert_invariants(traj, **kwargs)
