@@ -672,6 +672,10 @@ def assert_order(method, problem: Problem | str, expected: int, *, tol: float = 
 KINDS = ("bounded", "random walk", "drift")
 #: a drift needs a linear trend this many standard errors away from zero
 DRIFT_SIGNIFICANCE = 4.0
+#: "random walk" needs the block means to wander (their structure function at T/3) by
+#: more than this times the error's spread within a block: measured, a random walk's
+#: ratio is 11 or more, a bounded oscillation's 0.15 or less
+WALK_WANDER = 1.0
 #: block means the growth exponent is measured on
 BLOCKS = 256
 
@@ -696,11 +700,17 @@ class EnergyDrift:
         residuals) by ``c0 + c1 tau + c2 tau^2``: a bounded part, a random walk and a
         drift. The verdict is the term that dominates at ``tau = T/3``; a drift also
         needs a significant linear trend (``|rate| > 4 rate_stderr``), otherwise the
-        growth is a slow oscillation and the verdict the larger of the other two.
+        growth is a slow oscillation and the verdict the larger of the other two. A
+        random walk also needs the block means to wander (``S(T/3)``) by more than the
+        error spreads within a block (a random walk's wander by ten times more or so);
+        block means that wander less are the residue of a bounded oscillation that
+        does not quite average out in a block, and the verdict is bounded.
     confidence
-        The share of ``S^2(T/3)`` that the winning term explains (between 1/3 and 1):
+        The share of ``S^2(T/3)`` that the winning term explains (between 0 and 1;
+        at least 1/3 unless a drift was set aside for want of a significant trend):
         near 1 a clear verdict, near 1/2 a mixture (e.g. a slow drift under a large
-        bounded oscillation).
+        bounded oscillation). For a random walk overruled by the wander test:
+        ``1 - wander``.
     rate, rate_stderr
         Least-squares slope of ``e`` against ``t`` (relative energy per unit time) and
         its standard error from 20 block means.
@@ -804,7 +814,19 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
     k = int(np.argmax(parts))
     if k == 2 and not abs(rate) > DRIFT_SIGNIFICANCE * rate_se:
         k = int(np.argmax(parts[:2]))  # no significant linear trend: a slow oscillation
-    return EnergyDrift(KINDS[k], exponent, float(parts[k] / total), rate, rate_se, max_err)
+        total = float(parts[:2].sum()) or 1.0
+    confidence = float(parts[k] / total)
+    if k == 1:
+        # the block means of a bounded oscillation that does not quite average out in a
+        # block (its period beating with the block length) can wander like a random
+        # walk over short lags; but they wander far less than the error spreads within
+        # a block, while a random walk's wander by far more (sqrt(T/3) against
+        # sqrt(T/256)): then the error is bounded
+        spread = float(np.median([b.std() for b in np.array_split(e, m)]))
+        wander = float(amp[-1]) / spread if spread > 0 else math.inf
+        if wander < WALK_WANDER:
+            k, confidence = 0, 1.0 - wander / WALK_WANDER
+    return EnergyDrift(KINDS[k], exponent, confidence, rate, rate_se, max_err)
 
 
 # ----------------------------------------------------------------------------------------

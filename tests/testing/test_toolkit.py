@@ -361,3 +361,23 @@ def test_assert_invariants_checks_its_tolerances(kwargs, error, words):
     traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.1, steps=100, method="rattle")
     with pytest.raises(error, match=words):
         testing.assert_invariants(traj, **kwargs)
+
+
+def test_bounded_oscillations_are_not_called_random_walks():
+    """A bounded error whose period beats with the block length leaves block means that
+    wander like a random walk over short lags (before: 16 of 40 sines of random
+    frequency were called "random walk", and so was splitting2 on the HLW body). They
+    wander far less than the error spreads within a block; a random walk's wander far
+    more. Sines, symplectic runs and random walks of known law, each told apart."""
+    t = np.arange(200_000.0)
+    rng = np.random.default_rng(0)
+    for f in rng.uniform(0.01, 3.0, 40):
+        verdict = testing.energy_drift(t=t, energy=1 + 1e-6 * np.sin(f * t))
+        assert verdict.kind == "bounded" and 0.0 <= verdict.confidence <= 1.0, (f, verdict)
+    walks = [testing.energy_drift(t=t, energy=1 + 1e-9 * np.cumsum(
+        np.random.default_rng(seed).normal(size=t.size))).kind for seed in range(20)]
+    assert walks.count("bounded") == 0 and walks.count("random walk") >= 16, walks
+    p = testing.problem("hlw")
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.013, steps=600_000,
+                             method="splitting2", save_every=10)
+    assert testing.energy_drift(traj).kind == "bounded"
