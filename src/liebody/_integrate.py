@@ -68,22 +68,25 @@ CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free s
 ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
 
 
-def _initial_momentum(scene, L0, omega0) -> np.ndarray:
-    """Body angular momentum ``(3,)`` or ``(N, 3)`` from ``L0`` or ``omega0``."""
+def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
+    """Body angular momentum ``(3,)`` or ``(N, 3)`` from ``L0`` or ``omega0`` (``names``:
+    what messages call them)."""
+    l_name, w_name = names
     if (L0 is None) == (omega0 is None):
-        raise ValueError("give exactly one of L0 (body angular momentum) and omega0 "
-                         "(body angular velocity)")
+        raise ValueError(f"give exactly one of {l_name} (body angular momentum) and "
+                         f"{w_name} (body angular velocity)")
     if L0 is not None:
-        name, m = "L0", np.array(as_float_array("L0", L0, last_dim=3))
+        name, m = l_name, np.array(as_float_array(l_name, L0, last_dim=3))
     else:
-        omega = as_float_array("omega0", omega0, last_dim=3)
-        _check_batch("omega0", omega)
+        omega = as_float_array(w_name, omega0, last_dim=3)
+        _check_batch(w_name, omega)
         try:
             m = np.asarray(scene.moments) * omega
         except ValueError:
-            raise ValueError(f"omega0 of shape {omega.shape} does not broadcast against the "
-                             f"scene's moments of shape {np.shape(scene.moments)}") from None
-        name = "omega0"
+            raise ValueError(f"{w_name} of shape {omega.shape} does not broadcast against "
+                             f"the scene's moments of shape {np.shape(scene.moments)}") \
+                from None
+        name = w_name
     _check_batch(name, m)
     size = max(map(abs, m.tolist())) if m.ndim == 1 else float(np.max(np.abs(m)))
     if not size <= MAX_MOMENTUM:
@@ -98,6 +101,9 @@ def _check_batch(name: str, a: np.ndarray) -> None:
     if a.ndim > 2:
         raise ValueError(f"{name} must be one state (..., shape ({a.shape[-1]},)) or one per "
                          f"body, shape (N, {a.shape[-1]}); got shape {a.shape}")
+    if a.ndim == 2 and a.shape[0] == 0:
+        raise ValueError(f"{name} holds no body (shape {a.shape}): an ensemble needs at "
+                         f"least one")
 
 
 def _step_count(dt: float, steps, t_end) -> int:
@@ -376,6 +382,10 @@ def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
     except ValueError:
         told = ", ".join(f"{k} {v[0] if v else 'one body'}" for k, v in shapes.items())
         raise ValueError(f"the numbers of bodies do not match: {told}") from None
+    if batch and batch[0] == 0:
+        empty = ", ".join(k for k, v in shapes.items() if v and v[0] == 0)
+        raise ValueError(f"an ensemble needs at least one body: {empty} has none "
+                         f"(shape (0, ...))")
     return batch[0] if batch else None
 
 

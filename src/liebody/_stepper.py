@@ -474,7 +474,7 @@ class Stepper:
     def L(self, value) -> None:
         from liebody._integrate import _initial_momentum
 
-        m = _initial_momentum(self._scene, value, None)
+        m = _initial_momentum(self._scene, value, None, names=("L", "omega"))
         self._set(slice(4, 7), m, "L")
         self._stale, self._fast = True, False
 
@@ -487,7 +487,7 @@ class Stepper:
     def omega(self, value) -> None:
         from liebody._integrate import _initial_momentum
 
-        m = _initial_momentum(self._scene, None, value)
+        m = _initial_momentum(self._scene, None, value, names=("L", "omega"))
         self._set(slice(4, 7), m, "omega")
         self._stale, self._fast = True, False
 
@@ -498,12 +498,17 @@ class Stepper:
 
     @state.setter
     def state(self, value) -> None:
+        from liebody._integrate import _initial_momentum
+
         try:
             q, L = value
         except (TypeError, ValueError):
             raise ValueError("state must be a pair (q, L)") from None
-        self.q = q
-        self.L = L
+        q = self._fit(_as_unit_q("q", q), "q")  # both checked before either is set
+        m = self._fit(_initial_momentum(self._scene, L, None, names=("L", "omega")), "L")
+        self._set(slice(0, 4), q, "q")
+        self._set(slice(4, 7), m, "L")
+        self._stale, self._fast = True, False
 
     @property
     def u(self) -> np.ndarray | None:
@@ -559,18 +564,24 @@ class Stepper:
                 if not g["whole"]:
                     self._state[g["idx"]] = g["state"]
 
-    def _set(self, sl: slice, value: np.ndarray, name: str) -> None:
+    def _fit(self, value: np.ndarray, name: str) -> np.ndarray:
+        """``value`` shaped for the stepper's bodies, or a ValueError naming ``name``."""
         if self._n is None:
             if value.ndim != 1:
                 raise ValueError(f"{name} must be one state for a one-body stepper, got shape "
                                  f"{value.shape}")
-            self._state[sl] = value
-            return
+            return value
         try:
-            value = np.broadcast_to(value, (self._n, value.shape[-1]))
+            return np.broadcast_to(value, (self._n, value.shape[-1]))
         except ValueError:
             raise ValueError(f"{name} of shape {value.shape} does not fit {self._n} bodies") \
                 from None
+
+    def _set(self, sl: slice, value: np.ndarray, name: str) -> None:
+        value = self._fit(value, name)
+        if self._n is None:
+            self._state[sl] = value
+            return
         self._gather()
         self._state[:, sl] = value
         self._status[:] = S.STATUS_OK

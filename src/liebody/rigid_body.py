@@ -196,6 +196,9 @@ class RigidBody:
             )
         arr = as_float_array("inertia", inertia)
         batch = bool(_batch)
+        if batch and arr.ndim >= 2 and arr.shape[0] == 0:
+            raise ValueError("inertia of a batch must hold at least one body, got shape "
+                             f"{arr.shape}")
         shapes = ((3,), (3, 3)) if not batch else ((None, 3), (None, 3, 3))
         if arr.ndim == len(shapes[0]) and arr.shape[-1] == 3:
             moments = arr.reshape(-1, 3).copy()

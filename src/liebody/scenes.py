@@ -211,8 +211,12 @@ class Scene:
         for name, rank in self.per_body.items():
             value = getattr(self, name)
             if np.ndim(value) > rank:
-                part = np.asarray(value)[idx].copy()
-                part.flags.writeable = False
+                part = np.asarray(value)[idx]
+                if np.ndim(part) == 0:  # one body by an integer index: a plain number
+                    part = float(part)
+                else:
+                    part = part.copy()
+                    part.flags.writeable = False
                 object.__setattr__(out, name, part)
         return out
 

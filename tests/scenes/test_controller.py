@@ -793,3 +793,50 @@ def test_a_blow_up_raises_integration_error_and_changes_nothing(scene):
         s.step(2 * failed_at + 10)
     assert type(info.value) is liebody.IntegrationError and info.value.step == failed_at
     _assert_unchanged(s, snap)
+
+
+@pytest.mark.parametrize(("attr", "value", "words"), [
+    ("state", ([0.0, 1.0, 0.0, 0.0], [np.nan, 0.0, 0.0]), "L must be finite"),
+    ("state", ([0.0, 1.0, 0.0, 0.0], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+     "L must be one state"),
+    ("state", ([0.0, 2.0, 0.0, 0.0], [0.2, 0.1, 0.3]), "q must be a unit quaternion"),
+    ("L", [np.nan, 0.0, 0.0], "L must be finite"),
+    ("omega", [np.inf, 0.0, 0.0], "omega must be finite"),
+])
+def test_setting_a_bad_state_names_it_and_changes_nothing(attr, value, words):
+    """Before: ``state = (q, bad L)`` set q and then failed, and the messages named the
+    constructor's L0/omega0."""
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    s = liebody.Stepper(scene, L0=[0.1, 1.0, 0.0], dt=0.01, method="splitting2")
+    q, L = s.state
+    with pytest.raises(ValueError, match=words):
+        setattr(s, attr, value)
+    np.testing.assert_array_equal(s.q, q)
+    np.testing.assert_array_equal(s.L, L)
+
+
+def test_empty_ensembles_are_refused_by_name():
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    for kwargs, name in (({"L0": np.zeros((0, 3))}, "L0"),
+                         ({"omega0": np.zeros((0, 3))}, "omega0"),
+                         ({"q0": np.zeros((0, 4)), "L0": [1.0, 0.0, 0.0]}, "q0")):
+        with pytest.raises(ValueError, match=f"{name} holds no body"):
+            liebody.integrate(scene, dt=0.1, steps=10, method="splitting2", **kwargs)
+        with pytest.raises(ValueError, match=f"{name} holds no body"):
+            liebody.Stepper(scene, dt=0.1, method="splitting2", **kwargs)
+    with pytest.raises(ValueError, match="at least one body"):
+        liebody.RigidBody.batch(np.zeros((0, 3)))
+
+
+def test_take_with_an_integer_gives_that_body_as_a_one_body_scene():
+    """Before: ``take(1)`` failed with 'Cannot set flags on array scalars'."""
+    body = liebody.RigidBody([1.0, 1.0, 0.5])
+    tops = liebody.HeavyTop(body, mass=[1.0, 2.0], cm=[0.0, 0.0, 1.0])
+    one = tops.take(1)
+    assert one.batch_shape == () and one.mass == 2.0
+    ref = liebody.HeavyTop(body, mass=2.0, cm=[0.0, 0.0, 1.0])
+    a = liebody.integrate(one, L0=[0.1, 0.0, 3.0], dt=0.01, steps=50, method="splitting2")
+    b = liebody.integrate(ref, L0=[0.1, 0.0, 3.0], dt=0.01, steps=50, method="splitting2")
+    np.testing.assert_array_equal(a.q, b.q)
+    damped = liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 2.5]), [0.1, 0.2]).take(0)
+    assert damped.batch_shape == ()
