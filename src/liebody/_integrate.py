@@ -619,9 +619,12 @@ class _Run:
             if self.model.function is not None and not _torque_is_finite(
                     self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
                 raise_torque_error(self.model, name, where, state, t0, dt,
-                                   self._partial(n_keep, "failed", failed_at=t0), done, self.u)
+                                   self._partial(n_keep, "failed", failed_at=t0 + dt), done,
+                                   self.u)
             return self._failed_nonfinite(n_keep, done, t0 + dt)
-        traj = self._partial(n_keep, "failed", failed_at=t0)
+        # failed_at is the time the failing step was to reach, as for a blow-up and for
+        # the bodies of an ensemble; the exception's .t is where that step starts
+        traj = self._partial(n_keep, "failed", failed_at=t0 + dt)
         if status == S.STATUS_TORQUE:
             raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u)
         if status == S.STATUS_NO_CONVERGENCE:

@@ -26,10 +26,11 @@ class Trajectory:
     scene, method, dt
         What was integrated, how, and the step.
     failed_at : float or None
-        Time of the first step that produced a non-finite state (baselines that blow
-        up); the samples stop before it. ``None`` for a complete run. For an ensemble,
-        an array ``(N,)``: the failing step's time per body, NaN for bodies that
-        completed.
+        The time the failing step was to reach (its end): the first step that produced
+        a non-finite state (baselines that blow up), whose implicit equation had no
+        solution, or whose torque failed; the samples stop before it. ``None`` for a
+        complete run. For an ensemble, an array ``(N,)``: that time per body, NaN for
+        bodies that completed.
     info : dict
         Choices made at set-up (axis ordering, base of a composition, ...).
     status : str

@@ -292,3 +292,18 @@ def test_batch_bodies_validate_and_index():
         warnings.simplefilter("error")
         np.testing.assert_allclose(b.kinetic_energy(L0 / MOMENTS),
                                    0.5 * np.sum(L0 * L0 / MOMENTS, axis=1), rtol=1e-15)
+
+
+def test_failed_at_means_the_same_for_one_body_and_an_ensemble():
+    """The time the failing step was to reach, whatever failed (a non-converging implicit
+    step here), for a one-body call's exception and for the body of an ensemble."""
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    L_bad = [0.0, 500.0, 3.0]  # h |omega| = 25: RATTLE's equation has no root at once
+    with pytest.raises(liebody.ConvergenceError) as info:
+        liebody.integrate(scene, L0=L_bad, dt=0.1, steps=10, method="rattle")
+    one = info.value.trajectory.failed_at
+    with pytest.warns(RuntimeWarning):
+        ens = liebody.integrate(scene, L0=[[0.1, 0.2, 0.3], L_bad], dt=0.1, steps=10,
+                                method="rattle", simd=False)
+    assert one == pytest.approx(0.1) and ens.failed_at[1] == pytest.approx(one)
+    assert np.isnan(ens.failed_at[0])
