@@ -60,12 +60,16 @@ class Trajectory:
     diagnostics: dict | None = None
 
     def __post_init__(self) -> None:
-        for name in ("t", "q", "L"):
+        for name in ("t", "q", "L", "failed_at", "status"):  # (per-body arrays of ensembles)
             arr = getattr(self, name)
-            if arr.flags.writeable:
+            if isinstance(arr, np.ndarray) and arr.flags.writeable:
                 arr = arr.view()
                 arr.flags.writeable = False
                 object.__setattr__(self, name, arr)
+        if self.diagnostics:
+            for value in self.diagnostics.values():
+                if isinstance(value, np.ndarray):
+                    value.flags.writeable = False
 
     def __len__(self) -> int:
         return int(self.t.shape[0])

@@ -329,6 +329,18 @@ def test_trajectory_arrays_are_read_only(hlw):
     np.testing.assert_array_equal(tr.energy, E)
 
 
+def test_an_ensembles_per_body_arrays_are_read_only():
+    """failed_at, status and the running diagnostics of an ensemble too (before: writable,
+    while t, q and L were not)."""
+    scene = _free()
+    with pytest.warns(RuntimeWarning):
+        tr = liebody.integrate(scene, L0=[[0.3, 1.0, 0.2], [0.0, 500.0, 3.0]], dt=0.1,
+                               steps=10, method="rattle", diagnostics=True, simd=False)
+    for arr in (tr.failed_at, tr.status, *tr.diagnostics.values()):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = arr[1]
+
+
 # ----------------------------------------------------------------------- threads
 
 
