@@ -176,7 +176,18 @@ class Trajectory:
         from liebody import euler
 
         angles = self._on_finite(euler.from_quaternion, 3, self.orientation)
-        return euler.unwrap(angles, axis=-2) if unwrap else angles
+        if not unwrap:
+            return angles
+        mask = self._finite()
+        if mask.all():
+            return euler.unwrap(angles, axis=-2)
+        out = angles.copy()  # a failed body: unwrap its samples before the failure
+        rows = out if out.ndim == 3 else out[None]
+        for body, ok in zip(rows, mask if mask.ndim == 2 else mask[None], strict=True):
+            n = int(ok.sum())  # the finite samples are the first n
+            if n:
+                body[:n] = euler.unwrap(body[:n], axis=-2)
+        return out
 
     def __repr__(self) -> str:
         span = (f"t=[{self.t[0] if len(self) else 0:g}, {self.t[-1] if len(self) else 0:g}]")

@@ -307,3 +307,19 @@ def test_failed_at_means_the_same_for_one_body_and_an_ensemble():
                                 method="rattle", simd=False)
     assert one == pytest.approx(0.1) and ens.failed_at[1] == pytest.approx(one)
     assert np.isnan(ens.failed_at[0])
+
+
+def test_unwrapped_euler_angles_of_an_ensemble_with_a_failed_body():
+    """Before: ValueError 'angles must be finite'. The failed body's samples before the
+    failure are unwrapped, NaN after; the others equal their one-body runs."""
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    Ls = [[0.0, 0.1, 0.05], [0.0, 50.0, 3.0], [0.0, 0.2, 0.01]]
+    with pytest.warns(RuntimeWarning):
+        tr = liebody.integrate(scene, L0=Ls, dt=0.1, steps=200, method="rattle", simd=False)
+    assert tr.status[1] != "complete"
+    angles = tr.euler_angles(unwrap=True)
+    n = int(np.isfinite(tr.q[1]).all(axis=-1).sum())
+    assert np.isfinite(angles[1, :n]).all() and np.isnan(angles[1, n:]).all()
+    for i in (0, 2):
+        one = liebody.integrate(scene, L0=Ls[i], dt=0.1, steps=200, method="rattle")
+        np.testing.assert_array_equal(angles[i], one.euler_angles(unwrap=True))
