@@ -44,6 +44,22 @@ def resolve_threads(threads) -> int:
     return int(threads)
 
 
+def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> str | None:
+    """The warning of an ensemble some of whose bodies failed (``None`` if none did): how
+    many, why, and one body of each kind with its time."""
+    bad = [i for i, s in enumerate(status) if str(s).startswith("failed")]
+    if not bad:
+        return None
+    kinds: dict[str, list[int]] = {}
+    for i in bad:
+        kinds.setdefault(str(status[i])[8:] or "failed", []).append(i)
+    words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
+                      for k, v in kinds.items())
+    return (f"{method}: {len(bad)} of {len(status)} bodies failed: {words}; their samples "
+            f"stop there (NaN after; Trajectory.failed_at and Trajectory.status per body), "
+            f"the others finished")
+
+
 class EnsembleRun:
     """One :func:`liebody.integrate` call for ``N`` bodies, after validation."""
 
@@ -222,16 +238,9 @@ class EnsembleRun:
         bad = np.flatnonzero(self.status != S.STATUS_OK)
         for i in bad:
             status[i] = "failed: " + REASONS.get(int(self.status[i]), "unknown")
-        if len(bad):
-            kinds = {}
-            for i in bad:
-                kinds.setdefault(status[i][8:], []).append(int(i))
-            words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
-                              for k, v in kinds.items())
-            warnings.warn(f"{self.method.name}: {len(bad)} of {self.n} bodies failed: {words}; "
-                          f"their samples stop there (NaN after; Trajectory.failed_at and "
-                          f"Trajectory.status per body), the others finished",
-                          RuntimeWarning, stacklevel=4)
+        message = failure_message(self.method.name, status, failed_at)
+        if message:
+            warnings.warn(message, RuntimeWarning, stacklevel=4)
         diag = None
         if self.diag:
             from liebody._integrate import diagnostics_dict

@@ -65,7 +65,7 @@ def _client(client):
     return client
 
 
-def _run_chunk(scene, q0, m0, kwargs):
+def _run_chunk(scene, q0, m0, kwargs, controls=None):
     """One task: the local batched integrate of a chunk of bodies (runs on a worker)."""
     import warnings
 
@@ -73,6 +73,8 @@ def _run_chunk(scene, q0, m0, kwargs):
 
     kwargs = dict(kwargs)
     kwargs[kwargs.pop("momentum")] = m0
+    if controls is not None:
+        kwargs["controls"] = controls
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         traj = liebody.integrate(scene, q0=q0, **kwargs)
@@ -94,31 +96,43 @@ class DistributedResult:
     scene: object
     method: object
     dt: float
+    #: per task, a future of its (info, diagnostics, status): small, fetched by
+    #: :meth:`to_trajectory`
+    extras: list | None = None
 
     def to_trajectory(self):
-        """Compute the arrays and wrap them in a :class:`liebody.Trajectory`."""
+        """Compute the arrays and wrap them in a :class:`liebody.Trajectory` (with the
+        tasks' ``info``, ``status`` and ``diagnostics``, as the gathered call gives)."""
         import dask
 
         from liebody.trajectory import Trajectory
 
         t, q, L, failed = dask.compute(self.t, self.q, self.L, self.failed_at)
-        status = np.where(np.isnan(failed), "complete", "failed").astype(object)
+        if not self.extras:
+            status = np.where(np.isnan(failed), "complete", "failed").astype(object)
+            return Trajectory(t, q, L, self.scene, self.method, self.dt, failed_at=failed,
+                              status=status)
+        extras = self.extras[0].client.gather(self.extras)
+        infos, diags, statuses = zip(*extras, strict=True)
         return Trajectory(t, q, L, self.scene, self.method, self.dt, failed_at=failed,
-                          status=status)
+                          info=_one_info(list(infos)), status=np.concatenate(statuses),
+                          diagnostics=_concat_diagnostics(list(diags)))
 
 
 def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps=None,
               t_end=None, method=None, save_every=1, diagnostics: bool = False,
-              client=None, bodies_per_task: int | None = None, threads_per_task: int = 1,
+              controls=None, t0: float = 0.0, client=None,
+              bodies_per_task: int | None = None, threads_per_task: int = 1,
               gather: bool = True, simd: bool | None = None):
     """:func:`liebody.integrate` for an ensemble, split over a Dask cluster.
 
     Parameters
     ----------
-    scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagnostics, simd
+    scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagnostics, controls, t0, simd
         As for :func:`liebody.integrate` (the ensemble given by the body axis of the
-        states and of the scene's parameters). ``simd=None`` is decided once for the
-        whole ensemble, so that every task runs the kernels the local call would.
+        states and of the scene's parameters; ``controls`` ``(k,)`` or one row per body
+        ``(N, k)``). ``simd=None`` is decided once for the whole ensemble, so that every
+        task runs the kernels the local call would.
     client
         A ``dask.distributed.Client``; ``None``: the current default client.
     bodies_per_task
@@ -132,7 +146,7 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     """
     import liebody
     from liebody import _methods
-    from liebody._integrate import _bodies, _initial_momentum
+    from liebody._integrate import _bodies, _initial_momentum, as_controls
     from liebody._validate import as_positive_int
     from liebody._validate import as_unit_quaternion as _as_unit_q
 
@@ -157,8 +171,9 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
                 else as_positive_int("bodies_per_task", bodies_per_task))
     workers = max(1, sum(client.nthreads().values()))
     per_task = max(1, min(per_task, math.ceil(n / workers)))
+    u = as_controls(scene, controls, n)  # checked here, as the local call checks it
     kwargs = {"dt": dt, "steps": steps, "t_end": t_end, "method": method.name, "momentum": m_name,
-              "save_every": save_every, "diagnostics": diagnostics,
+              "save_every": save_every, "diagnostics": diagnostics, "t0": t0,
               "threads": as_positive_int("threads_per_task", threads_per_task),
               "simd": _simd_for(simd, n)}
     edges = list(range(0, n, per_task)) + [n]
@@ -167,8 +182,15 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
     # a fresh key per call (hash=False): a repeated call with the same scene must not
     # reuse the key of data that the previous call's release may be dropping
     scene_f = client.scatter(scene, broadcast=True, hash=False) if not batched else None
+
+    def controls_of(c):
+        if controls is None:
+            return None
+        return u[c] if np.ndim(u) == 2 else u
+
     futures = [client.submit(_run_chunk, scene.take(c) if batched else scene_f,
-                             q_raw[c], m_raw[c], kwargs, pure=True) for c in chunks]
+                             q_raw[c], m_raw[c], kwargs, controls_of(c), pure=True)
+               for c in chunks]
     if not gather:
         return _as_dask(futures, chunks, scene, method, float(dt), client)
     parts = client.gather(futures)
@@ -188,27 +210,46 @@ def _simd_for(simd, n: int) -> bool:
 
 
 def _assemble(parts, scene, method, dt, diagnostics, liebody):
-    """One Trajectory from the chunks' results, in body order, with one warning each."""
+    """One Trajectory from the chunks' results, in body order. The warnings about failed
+    bodies and invariants are made again for the whole ensemble (a task's counts and
+    body numbers are its own); any other warning is passed on once."""
     import warnings
+
+    from liebody._ensemble import failure_message
+    from liebody._integrate import warn_invariants
+    from liebody.errors import InvariantWarning
 
     seen = set()
     for p in parts:
         for category, message in p["warnings"]:
-            if (category, message.split(":")[0]) not in seen:
-                seen.add((category, message.split(":")[0]))
+            ours = issubclass(category, InvariantWarning) or (
+                issubclass(category, RuntimeWarning) and " bodies failed: " in message)
+            if not ours and (category, message) not in seen:
+                seen.add((category, message))
                 warnings.warn(message, category, stacklevel=3)
-    diag = None
-    if diagnostics:
-        diag = {k: np.concatenate([p["diagnostics"][k] for p in parts])
-                for k in parts[0]["diagnostics"]}
-    infos = [p["info"] for p in parts]
-    same = all(_same(i, infos[0]) for i in infos[1:])
-    return liebody.Trajectory(
+    status = np.concatenate([p["status"] for p in parts])
+    failed_at = np.concatenate([p["failed_at"] for p in parts])
+    message = failure_message(method.name, status, failed_at)
+    if message:
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
+    traj = liebody.Trajectory(
         parts[0]["t"], np.concatenate([p["q"] for p in parts]),
-        np.concatenate([p["L"] for p in parts]), scene, method, dt,
-        failed_at=np.concatenate([p["failed_at"] for p in parts]),
-        info=infos[0] if same else {"tasks": infos},
-        status=np.concatenate([p["status"] for p in parts]), diagnostics=diag)
+        np.concatenate([p["L"] for p in parts]), scene, method, dt, failed_at=failed_at,
+        info=_one_info([p["info"] for p in parts]), status=status,
+        diagnostics=_concat_diagnostics([p["diagnostics"] for p in parts]) if diagnostics
+        else None)
+    return warn_invariants(traj, stacklevel=4)
+
+
+def _one_info(infos: list) -> dict:
+    """The tasks' ``info``: one dict when they agree, else ``{"tasks": [...]}``."""
+    return infos[0] if all(_same(i, infos[0]) for i in infos[1:]) else {"tasks": infos}
+
+
+def _concat_diagnostics(diags: list) -> dict | None:
+    if not diags or diags[0] is None:
+        return None
+    return {k: np.concatenate([d[k] for d in diags]) for k in diags[0]}
 
 
 def _same(a, b) -> bool:
@@ -244,4 +285,6 @@ def _as_dask(futures, chunks, scene, method, dt, client):
         da.from_delayed(client.submit(lambda r: r["failed_at"], f, pure=True),
                         shape=(c.stop - c.start,), dtype=float)
         for f, c in zip(futures, chunks, strict=True)])
-    return DistributedResult(t, q, L, failed, scene, method, dt)
+    extras = [client.submit(lambda r: (r["info"], r["diagnostics"], r["status"]), f,
+                            pure=True) for f in futures]
+    return DistributedResult(t, q, L, failed, scene, method, dt, extras)

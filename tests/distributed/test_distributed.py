@@ -132,3 +132,44 @@ def test_the_same_call_twice_in_a_row(client):
     results = [liebody.distributed.integrate(scene, client=client, **kw) for _ in range(3)]
     for r in results[1:]:
         np.testing.assert_array_equal(r.q, results[0].q)
+
+
+def _commanded(t, q, L, u):
+    return u[:3] * np.cos(t)
+
+
+def test_failures_controls_t0_and_dask_arrays_as_the_local_call(client):
+    """The failure warning counts the whole ensemble with the local call's body numbers
+    (before: a task's own counts, 'body 1' for body 5); controls (one row per body) and
+    t0 are passed on; gather=False keeps info, status and diagnostics."""
+    from numba import njit
+
+    n = 8
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    L0 = np.tile([0.3, 1.0, 0.2], (n, 1))
+    L0[5], L0[6] = [0.0, 500.0, 3.0], [0.0, 400.0, 3.0]  # rattle has no root there
+    kw = {"L0": L0, "dt": 0.1, "steps": 20, "method": "rattle", "simd": False,
+          "diagnostics": True}
+    with pytest.warns(RuntimeWarning) as local_w:
+        local = liebody.integrate(scene, **kw)
+    with pytest.warns(RuntimeWarning) as remote_w:
+        remote = liebody.distributed.integrate(scene, client=client, bodies_per_task=4, **kw)
+    words = [str(w.message) for w in local_w if "bodies failed" in str(w.message)]
+    assert [str(w.message) for w in remote_w if "bodies failed" in str(w.message)] == words
+    assert "2 of 8 bodies failed" in words[0] and "body 5" in words[0]
+    np.testing.assert_array_equal(remote.failed_at, local.failed_at)
+    lazy = liebody.distributed.integrate(scene, client=client, bodies_per_task=4,
+                                         gather=False, **kw).to_trajectory()
+    assert list(lazy.status) == list(local.status) and lazy.info.keys() == local.info.keys()
+    for k, v in local.diagnostics.items():
+        np.testing.assert_array_equal(lazy.diagnostics[k], v)
+
+    steered = liebody.ControlledBody(liebody.RigidBody([1.0, 2.0, 2.5]), njit(_commanded),
+                                     controls=3)
+    u = np.random.default_rng(3).normal(scale=0.1, size=(n, 3))
+    kw = {"L0": [0.3, 1.0, 0.2], "q0": liebody.quaternion.random(n, rng=4), "dt": 0.01,
+          "steps": 300, "method": "splitting2", "controls": u, "t0": 2.5, "save_every": 50}
+    local = liebody.integrate(steered, **kw)
+    remote = liebody.distributed.integrate(steered, client=client, bodies_per_task=3, **kw)
+    np.testing.assert_array_equal(remote.q, local.q)
+    np.testing.assert_array_equal(remote.t, local.t)
