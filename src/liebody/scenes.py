@@ -481,7 +481,10 @@ class ControlledBody(TorqueBody):
         numbers). A reaction-wheel or thruster torque commanded directly is
         ``return u.copy()`` (with ``controls=3``).
     controls
-        Number of control inputs, 1 to 6.
+        Number of control inputs, 1 to 6. ``u`` holds exactly that many: numba does not
+        check bounds, so a torque that reads beyond ``u[controls - 1]`` reads memory
+        that is not ``u`` (compile the torque with ``@njit(boundscheck=True)`` while
+        developing it to catch that).
     potential, orientation_only, free_flow
         As for :class:`TorqueBody`. ``orientation_only=True`` promises that the torque
         does not depend on ``L`` (``u`` and ``t`` are allowed): kicks are then explicit
