@@ -388,23 +388,30 @@ def drift_stages(b: Bodies, key: int) -> tuple[list[Stage], dict]:
 
 
 def scene_step(b: Bodies, drift: list[Stage], info: dict) -> tuple[list[Stage], dict]:
-    """``side(h/2) drift(h) side(h/2)`` with the scene's torque kick or dissipation step.
+    """``side(h/2) drift(h) side(h/2)`` with the scene's torque kick and dissipation step.
 
     An orientation-only torque gets exact kicks on both sides (merged between steps);
     a torque that depends on the momentum closes the step with the adjoint (implicit)
-    kick, so the step stays symmetric; dissipation gets its second-order step ``D``.
+    kick, so the step stays symmetric; dissipation gets its second-order step ``D``. A
+    scene with both nests them, ``K(h/2) D(h/2) drift(h) D(h/2) K(h/2)``: symmetric, so
+    second order.
     """
     caps = b.capabilities
     info = dict(info)
+    opening, closing = [], []
+    if caps.torque:
+        kick = Stage(S.KICK, 0.5, torque=b.torque_code, c=b.weight_arm)
+        opening.append(kick)
+        if "momentum" in caps.torque:
+            closing.append(replace(kick, kind=S.KICK_IMPLICIT))
+            info["kicks"] = "explicit/implicit (L-dependent torque)"
+        else:
+            closing.append(kick)
     if caps.dissipative:
-        side = Stage(S.DAMP, 0.5, moments=b.moments, eps=b.eps)
-        return [side, *drift, side], info
-    kick = Stage(S.KICK, 0.5, torque=b.torque_code, c=b.weight_arm)
-    closing = kick
-    if "momentum" in caps.torque:
-        closing = replace(kick, kind=S.KICK_IMPLICIT)
-        info["kicks"] = "explicit/implicit (L-dependent torque)"
-    return [kick, *drift, closing], info
+        damp = Stage(S.DAMP, 0.5, moments=b.moments, eps=b.eps)
+        opening.append(damp)
+        closing.insert(0, damp)
+    return [*opening, *drift, *closing], info
 
 
 # ----------------------------------------------------------------------------------------

@@ -213,3 +213,34 @@ def test_pickled_scenes_leave_their_memos_behind():
         after = liebody.integrate(again, L0=[0.3, 1.0, 2.0], dt=0.01, steps=20,
                                   method="splitting2")
         np.testing.assert_array_equal(before.q, after.q)
+
+
+class _DampedTop(liebody.HeavyTop):
+    """A heavy top with internal dissipation too: a torque and a dissipation at once."""
+
+    @property
+    def capabilities(self):
+        return liebody.Capabilities(torque=frozenset({"orientation"}), conservative=False,
+                                    dissipative=True)
+
+    @property
+    def dissipation(self):
+        return 0.1
+
+
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")
+@pytest.mark.parametrize("method", ["splitting2", "no_squish"])
+def test_a_scene_with_a_torque_and_dissipation_gets_both(method):
+    """Before: the splittings ran the dissipation and dropped the torque (an error of
+    0.84 that did not shrink with h). Reference: rk4 at a 64 times smaller step (rk4
+    evaluates torque and dissipation in one vector field)."""
+    scene = _DampedTop(liebody.RigidBody([1.0, 2.0, 3.0]), mass=1.0, cm=[0.3, -0.2, 1.0],
+                       g=1.0)
+    q0, L0 = Q.exp([0.2, -0.1, 0.05]), [0.5, 1.0, 2.0]
+    ref = liebody.integrate(scene, q0=q0, L0=L0, dt=0.005 / 64, t_end=2.0, method="rk4")
+    errors = []
+    for h in (0.01, 0.005):
+        tr = liebody.integrate(scene, q0=q0, L0=L0, dt=h, t_end=2.0, method=method)
+        errors.append(np.abs(tr.L[-1] - ref.L[-1]).max())
+    assert errors[0] < 1e-3, errors
+    assert 3.0 < errors[0] / errors[1] < 5.0, errors  # second order
