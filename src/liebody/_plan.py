@@ -708,10 +708,20 @@ class FlowSequence(Recipe):
     @property
     def palindromic(self) -> bool:
         """The sequence reads the same backwards (a symmetric method, given symmetric
-        sub-flows)."""
+        sub-flows), kicks included: a kick reads the clock, so mirrored kicks must run at
+        mirrored times (``c_i + c_j`` = the step's clock, ``c`` the clock before a
+        stage)."""
         seq = [(n, f) for n, f, _ in self.flows]
-        return all(a[0] == b[0] and abs(a[1] - b[1]) <= 1e-15 * max(1.0, abs(a[1]))
-                   for a, b in zip(seq, reversed(seq), strict=True))
+        if not all(a[0] == b[0] and abs(a[1] - b[1]) <= 1e-15 * max(1.0, abs(a[1]))
+                   for a, b in zip(seq, reversed(seq), strict=True)):
+            return False
+        before, clock = [], 0.0
+        for _, _, c in self.flows:
+            before.append(clock)
+            clock += c
+        last = len(self.flows) - 1
+        return all(abs(before[i] + before[last - i] - clock) <= 1e-14
+                   for i, (name, _, _) in enumerate(self.flows) if name == "kick")
 
     def keys(self, b, h):
         return b.symmetry + 1  # recurring rotations depend on the symmetry axis

@@ -161,3 +161,21 @@ def test_orders_that_cannot_be_checked_are_refused(registered):
     m = liebody.register_composition("user_asym", [0.3, 0.7])
     registered.append(m.name)
     assert m.order == 2 and not m.reversible
+
+
+def test_a_splitting_whose_kicks_run_at_unmirrored_times_is_not_symmetric(registered):
+    """A kick reads the clock: Strang's K(h/2) F(h) K(h/2) is symmetric only with the
+    kicks at the two ends of the step. Before: the clocks were ignored, and the variants
+    below were called order 2 and reversible (measured: order 1)."""
+    for name, flows in (("user_clock_last", [("kick", 0.5), ("free", 1.0), ("kick", 0.5, 1.0)]),
+                        ("user_clock_split", [("kick", 0.5, 0.25), ("free", 1.0, 0.5),
+                                              ("kick", 0.5, 0.25)])):
+        m = liebody.register_splitting(name, flows)
+        registered.append(m.name)
+        assert m.order == 1 and not m.reversible
+        with pytest.raises(ValueError, match="cannot be checked"):
+            liebody.register_splitting(name + "_2", flows, order=2)
+    strang = liebody.register_splitting("user_strang_kicks",
+                                        [("kick", 0.5), ("free", 1.0, 1.0), ("kick", 0.5)])
+    registered.append(strang.name)
+    assert strang.order == 2 and strang.reversible
