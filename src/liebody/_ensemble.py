@@ -248,7 +248,7 @@ class EnsembleRun:
             if self.method.sampled:  # the exact flow: measured on the samples
                 self.dmax = sample_diagnostics(self.dref, self.q_out, self.m_out)
             self.dmax[self.status != S.STATUS_OK] = np.nan
-            diag = diagnostics_dict(self.dmax, False)
+            diag = diagnostics_dict(self.dmax, False, self.dref)
         traj = Trajectory(self._times()[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
                           self.scene, self.method, self.dt, failed_at=failed_at,
                           info=self.info, status=status, diagnostics=diag)

@@ -473,8 +473,12 @@ def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray) -> np.nda
     return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
 
 
-def diagnostics_dict(dmax: np.ndarray, one: bool) -> dict:
-    """``Trajectory.diagnostics`` from the kernel's running maxima ``(N, 3)``."""
+def diagnostics_dict(dmax: np.ndarray, one: bool, dref: np.ndarray) -> dict:
+    """``Trajectory.diagnostics`` from the kernel's running maxima ``(N, 3)``; the energy
+    error is NaN where the reference energy is (a user torque's potential, which the
+    kernel cannot evaluate: its running maximum never moved from 0)."""
+    dmax = np.array(dmax, dtype=float)
+    dmax[np.isnan(np.atleast_2d(dref)[:, 6]), 0] = np.nan
     keys = ("max_energy_error", "max_qnorm_error", "max_casimir_error")
     return {k: (float(dmax[0, i]) if one else dmax[:, i].copy()) for i, k in enumerate(keys)}
 
@@ -526,7 +530,8 @@ class _Run:
         if self.diag:  # the exact flow keeps its invariants: measured on the samples
             from liebody._ensemble import sample_diagnostics
 
-            diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True)
+            diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True,
+                                    self.dref)
         return self._finish(Trajectory(self._times(), q, m, self.scene, self.method, self.dt,
                                        diagnostics=diag))
 
@@ -583,7 +588,7 @@ class _Run:
     def _diagnostics(self) -> dict | None:
         if not self.diag:
             return None
-        return diagnostics_dict(self.dmax[None, :], True)
+        return diagnostics_dict(self.dmax[None, :], True, self.dref)
 
     # -------------------------------------------------------------- outcomes
     def _partial(self, n_keep: int, status: str, failed_at: float | None = None) -> Trajectory:

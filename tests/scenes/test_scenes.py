@@ -244,3 +244,19 @@ def test_a_scene_with_a_torque_and_dissipation_gets_both(method):
         errors.append(np.abs(tr.L[-1] - ref.L[-1]).max())
     assert errors[0] < 1e-3, errors
     assert 3.0 < errors[0] / errors[1] < 5.0, errors  # second order
+
+
+def test_running_energy_error_is_nan_for_a_user_potential():
+    """The kernel cannot call a Python potential: the documented NaN (before: 0.0, while
+    the energy changed)."""
+    body = liebody.RigidBody([1.0, 2.0, 2.5])
+    scene = liebody.TorqueBody(body, _gravity_gradient, orientation_only=True,
+                               potential=lambda q: 0.0)
+    kw = {"dt": 0.01, "steps": 100, "method": "splitting2", "diagnostics": True}
+    one = liebody.integrate(scene, L0=[0.3, 1.0, 0.2], **kw)
+    assert np.isnan(one.diagnostics["max_energy_error"])
+    assert one.diagnostics["max_qnorm_error"] < 1e-14
+    ens = liebody.integrate(scene, L0=[[0.3, 1.0, 0.2], [1.0, 0.1, 0.2]], **kw)
+    assert np.isnan(ens.diagnostics["max_energy_error"]).all()
+    free = liebody.integrate(liebody.FreeBody(body), L0=[0.3, 1.0, 0.2], **kw)
+    assert 0.0 < free.diagnostics["max_energy_error"] < 1e-3
