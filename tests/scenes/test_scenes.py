@@ -246,6 +246,7 @@ def test_a_scene_with_a_torque_and_dissipation_gets_both(method):
     assert 3.0 < errors[0] / errors[1] < 5.0, errors  # second order
 
 
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # potential 0: a made-up one
 def test_running_energy_error_is_nan_for_a_user_potential():
     """The kernel cannot call a Python potential: the documented NaN (before: 0.0, while
     the energy changed)."""
