@@ -791,6 +791,11 @@ def dmv_modified_moments(moments, m0, h: float, order: int) -> np.ndarray:
     """
     moments = np.atleast_2d(np.asarray(moments, dtype=float))
     m = np.atleast_2d(np.asarray(m0, dtype=float))
+    # the map is homogeneous (I -> s I, m -> s m gives I_mod -> s I_mod): evaluate it in
+    # units where the moments' geometric mean is 1, so that det^4 and I^-4 neither
+    # overflow nor underflow for any moments RigidBody accepts (1e-100 .. 1e100)
+    scale = np.exp(np.mean(np.log(moments), axis=1))[:, None]
+    moments, m = moments / scale, m / scale
     I1, I2, I3 = moments[:, 0], moments[:, 1], moments[:, 2]
     N = 0.5 * h * h * np.sum(m * m, axis=1)
     H = 0.5 * h * h * np.sum(m * m / moments, axis=1)
@@ -843,4 +848,4 @@ def dmv_modified_moments(moments, m0, h: float, order: int) -> np.ndarray:
                    + 34.0 * det2 * i3) / (22680.0 * det3) * N * H**3
                 + (165.0 * s1 - det * t13 - 9.0 * t21 - 145.0 * det * i2)
                 / (45360.0 * det2) * H**4)
-    return np.stack([1.0 / (css / I + cdd) for I in (I1, I2, I3)], axis=1)
+    return np.stack([1.0 / (css / I + cdd) for I in (I1, I2, I3)], axis=1) * scale
