@@ -635,10 +635,19 @@ def get(name) -> Method:
 
 
 def check_supports(method: Method, scene) -> None:
-    """Raise a ``ValueError`` naming the rule when ``method`` cannot integrate ``scene``."""
+    """Raise a ``ValueError`` naming the rule when ``method`` cannot integrate ``scene``
+    (or when the scene's capabilities and torque model disagree: the scene contract)."""
+    caps = scene.capabilities
+    torqued = scene.torque_model().code != S.TORQUE_NONE
+    if bool(caps.torque) != torqued:
+        said = f"declares torque {sorted(caps.torque)}" if caps.torque else "declares no torque"
+        gives = "a torque model" if torqued else "no torque model (TorqueModel.none())"
+        raise ValueError(
+            f"the scene {type(scene).__name__} {said} in its capabilities but its "
+            f"torque_model() gives {gives}: the methods would disagree on whether it has a "
+            f"torque. Make the two agree (the Scene contract in liebody.scenes)")
     if method.supports(scene):
         return
-    caps = scene.capabilities
     able = [m.name for m in _REGISTRY.values() if m.supports(scene)]
     raise ValueError(
         f"method {method.name!r} cannot integrate this {type(scene).__name__}: the scene has "

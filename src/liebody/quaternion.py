@@ -209,6 +209,10 @@ def from_matrix(matrix: ArrayLike, *, tol: float = 1e-9) -> Array:
     return out.reshape(batch + (4,))
 
 
+#: the largest rotation angle :func:`exp` takes (its square must not overflow)
+MAX_ROTATION_ANGLE = 1e150
+
+
 def exp(rotvec: ArrayLike) -> Array:
     """Exponential map: rotation vector (angle ``|r|`` about ``r/|r|``) to unit quaternion.
 
@@ -216,6 +220,12 @@ def exp(rotvec: ArrayLike) -> Array:
     (series for ``sin(a/2)/a``). ``R(exp(r)) = expm(hat(r))``.
     """
     r = as_float_array("rotvec", rotvec, last_dim=3)
+    if r.size and float(np.abs(r).max()) > MAX_ROTATION_ANGLE:
+        raise ValueError(
+            f"rotvec: a rotation angle |r| above {MAX_ROTATION_ANGLE:g} rad (got a component "
+            f"of {float(np.abs(r).max()):.3g}); its square overflows, and beyond about 1e16 "
+            f"the angle modulo 2 pi is lost to rounding anyway. Reduce the angle modulo "
+            f"2 pi first")
     batch = r.shape[:-1]
     flat = _kernel_array(r.reshape(-1, 3))
     out = np.empty((flat.shape[0], 4))

@@ -15,7 +15,9 @@ Everything :func:`liebody.integrate` accepts is a :class:`Scene`. A scene provid
   (nothing, the orientation, the momentum, the time), whether it derives from a
   potential (conservative), whether there is dissipation;
 * ``potential(q)`` — the potential energy at orientations ``q`` ``(..., 4)`` (zeros
-  when there is none), used by the energy diagnostics;
+  when there is none), used by the energy diagnostics; for a scene whose parameters
+  have a body axis (``batch_shape`` ``(N,)``) the body axis comes first, ``q``
+  ``(N, ..., 4)``, and the result is ``(N, ...)``;
 * ``torque_model()`` — how the kernels evaluate the torque: a :class:`TorqueModel`
   (none, uniform gravity, or a user's numba function through
   :meth:`TorqueModel.user`);
@@ -24,6 +26,13 @@ Everything :func:`liebody.integrate` accepts is a :class:`Scene`. A scene provid
   :class:`ControlledBody`);
 * ``free_flow`` — the drift of the splittings for an asymmetric body (``"auto"``,
   ``"axes"`` or ``"exact"``) and ``default_method``.
+
+A scene is immutable once made: liebody caches what it derives from a scene (the plans
+of the methods, the torque model, the capabilities), keyed on the scene object, so a
+parameter changed afterwards would not be seen. Make a new scene instead (the built-in
+scenes are frozen dataclasses). The capabilities and the torque model must agree: a
+declared torque needs a torque model, and a torque model a declared torque (checked on
+every run).
 
 The scenes below implement it. The easy way to a new scene is a subclass of
 one of them (a gravity-gradient satellite is a :class:`TorqueBody` whose torque

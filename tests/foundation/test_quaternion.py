@@ -315,3 +315,12 @@ def test_unit_increment_removes_the_norm_defect_without_turning():
     assert max(after) < 1e-17
     tiny = qexp(1e-4, 0.0, 0.0)  # small rotations are left alone
     assert qunit_increment(*tiny) == tiny
+
+
+def test_exp_refuses_angles_whose_square_overflows():
+    """Before: NaN returned silently above |r| = 1.34e154."""
+    with pytest.raises(ValueError, match=r"rotvec: a rotation angle \|r\| above 1e\+150"):
+        Q.exp([1.35e154, 0.0, 0.0])
+    with pytest.raises(ValueError, match="rotvec"):
+        Q.exp([[0.1, 0.0, 0.0], [0.0, -2e150, 0.0]])
+    assert np.isfinite(Q.exp([1e149, 0.0, 0.0])).all()

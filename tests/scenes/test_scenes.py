@@ -261,3 +261,34 @@ def test_running_energy_error_is_nan_for_a_user_potential():
     assert np.isnan(ens.diagnostics["max_energy_error"]).all()
     free = liebody.integrate(liebody.FreeBody(body), L0=[0.3, 1.0, 0.2], **kw)
     assert 0.0 < free.diagnostics["max_energy_error"] < 1e-3
+
+
+def test_capabilities_and_torque_model_must_agree():
+    """A scene that declares a torque but gives no torque model ran as a free body, and one
+    that gives a torque model but declares none had it applied by rk4 and ignored by the
+    splittings. Both are refused, naming the contract."""
+
+    class Forgot(liebody.Scene):  # a torque declared, no torque_model()
+        def __init__(self, body):
+            self.body = body
+
+        @property
+        def capabilities(self):
+            return liebody.Capabilities(torque=frozenset({"orientation"}), conservative=False)
+
+    class Undeclared(Forgot):  # a torque model, capabilities of a free body
+        @property
+        def capabilities(self):
+            return liebody.Capabilities()
+
+        def torque_model(self):
+            return TorqueModel.user(_gravity_gradient)
+
+    body = liebody.RigidBody([1.0, 2.0, 2.5])
+    for scene, words in ((Forgot(body), "declares torque .* gives no torque model"),
+                         (Undeclared(body), "declares no torque .* gives a torque model")):
+        for method in ("splitting2", "rk4"):
+            with pytest.raises(ValueError, match=words):
+                liebody.integrate(scene, L0=[0.3, 1.0, 0.2], dt=0.01, steps=10, method=method)
+        with pytest.raises(ValueError, match=words):
+            liebody.Stepper(scene, L0=[0.3, 1.0, 0.2], dt=0.01, method="rk4")
