@@ -642,12 +642,9 @@ class Composition(Recipe):
 
     def stages(self, b, h, key):
         if self.base.step_dependent:  # each substep built for its own length g h
-            out, info = [], None
-            for g in self.coefficients:
-                base, sub = self.base.stages(b, g * h, key)
-                out += [st.scaled(g) for st in base]
-                info = sub if info is None else info
-            return out, info
+            subs = [self.base.stages(b, g * h, key) for g in self.coefficients]
+            return ([st.scaled(g) for g, (base, _) in zip(self.coefficients, subs, strict=True)
+                     for st in base], subs[0][1])
         base, info = self.base.stages(b, h, key)
         return compose(base, self.coefficients), info
 

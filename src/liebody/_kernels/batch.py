@@ -162,6 +162,7 @@ from liebody._kernels.stages import (
     STATUS_TORQUE,
     TORQUE_GRAVITY,
     TORQUE_USER,
+    family_tag,
 )
 
 #: bodies per block (the length of every row of the block buffer)
@@ -953,7 +954,7 @@ def _simd_runner(family: int, diag: bool = False):
     """The SIMD driver of one family for many bodies (``family``, ``diag``: compile-time
     constants); the signature and semantics of ``driver.BATCH_RUNNERS[family]``."""
 
-    @jit(tag=f"family{family}_diag" if diag else f"family{family}")
+    @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
         ns = kinds.shape[0]

@@ -84,6 +84,7 @@ from liebody._kernels.stages import (
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_TORQUE,
+    family_tag,
 )
 from liebody._kernels.torque import damping_flow, torque_value
 
@@ -254,11 +255,6 @@ def _diagnose(w, x, y, z, m1, m2, m3, dref, dmax):
         dmax[2] = le
 
 
-def _tag(family: int, diag: bool) -> str:
-    """The name of a family's driver (each kernel its own name: see ``_jit``)."""
-    return f"family{family}_diag" if diag else f"family{family}"
-
-
 def _runner(family: int, diag: bool = False):
     """The driver of one family: the loop below, for that family's stage kinds only.
 
@@ -271,7 +267,7 @@ def _runner(family: int, diag: bool = False):
     the cost of a torqued step.)
     """
 
-    @jit(tag=_tag(family, diag))
+    @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, torque_addr, dref, dmax):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
@@ -429,7 +425,7 @@ def _batch_runner(family: int, diag: bool = False):
     process and their cache grew by an entry each time.
     """
 
-    @jit(tag=_tag(family, diag))
+    @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
         for i in range(state.shape[0]):

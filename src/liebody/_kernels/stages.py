@@ -126,6 +126,13 @@ F_LIE_EULER = 9
 F_RKMK4 = 10
 F_GENERAL = 11  # every kind (plans that mix kinds of several families)
 
+
+
+def family_tag(family: int, diag: bool = False) -> str:
+    """The name a family's driver kernels carry (every kernel its own name: ``_jit``)."""
+    return f"family{family}_diag" if diag else f"family{family}"
+
+
 _KICKS = frozenset({KICK, KICK_IMPLICIT})
 _ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
 
