@@ -93,6 +93,28 @@ def _as_component(value) -> int:
     return _as_axis("component", value)
 
 
+def _ldexp(what: str, mantissa: float, exponent: int) -> float:
+    """``mantissa 2^exponent``, or a ``ValueError`` naming ``what`` beyond float64."""
+    try:
+        return math.ldexp(mantissa, exponent)
+    except OverflowError:
+        log10 = math.log10(abs(mantissa)) + exponent * math.log10(2.0)
+        raise ValueError(
+            f"{what} is about {10.0 ** (log10 % 1.0):.2g}e+{int(log10 // 1.0)}, beyond the "
+            f"largest float64 {np.finfo(np.float64).max:.3g}: rescale the units of the "
+            f"arguments") from None
+
+
+def _one_body(traj, fname: str) -> None:
+    """Refuse an ensemble trajectory (``q`` of shape ``(N, n, 4)``)."""
+    q = getattr(traj, "q", None)
+    if isinstance(q, np.ndarray) and q.ndim == 3:
+        raise ValueError(
+            f"{fname} takes one body's trajectory (q of shape (n, 4)), got an ensemble of "
+            f"{q.shape[0]} bodies (q of shape {q.shape}): measure one body at a time, "
+            f"e.g. {fname}(traj.body(i), ...)")
+
+
 def _has_samples(traj, n: int, what: str) -> None:
     if len(traj) < n:
         raise ValueError(f"traj must have at least {n} samples for {what}, got {len(traj)}")
@@ -126,12 +148,19 @@ def precession_rate(I: float, I3: float, omega3: float) -> float:
     float
         ``Omega``, signed: positive (counterclockwise about ``+x3`` seen from its tip)
         for an oblate top (``I3 > I``) with ``omega3 > 0``, negative for a prolate one.
-        The wobble period is ``2 pi / |Omega|``.
+        The wobble period is ``2 pi / |Omega|``. Evaluated from the mantissas and
+        exponents of the factors, so it is returned whenever it is a float64 (a
+        ``ValueError`` if it is beyond one).
     """
     I = as_positive_float("I", I)
     I3 = as_positive_float("I3", I3)
     omega3 = _as_real("omega3", omega3)
-    return omega3 * (I3 - I) / I
+    if omega3 == 0.0 or I3 == I:
+        return 0.0
+    # omega3 (I3 - I) / I from the mantissas and exponents of its factors: no intermediate
+    # overflow or underflow (omega3 (I3 - I) alone overflows at omega3 = I = 1e300)
+    (mw, ew), (md, ed), (mi, ei) = (math.frexp(v) for v in (omega3, I3 - I, I))
+    return _ldexp("Omega = omega3 (I3 - I) / I", mw * md / mi, ew + ed - ei)
 
 
 class Cones(NamedTuple):
@@ -336,7 +365,8 @@ def wobble_period(traj, component: int = 0) -> float:
     Parameters
     ----------
     traj : Trajectory
-        Samples of a run; sample more finely than about 1/10 of the period.
+        Samples of one body's run (of an ensemble: ``traj.body(i)``); sample more
+        finely than about 1/10 of the period.
     component : {0, 1, 2}
         Body axis whose component oscillates about zero.
 
@@ -349,8 +379,9 @@ def wobble_period(traj, component: int = 0) -> float:
     ------
     ValueError
         Fewer than 2 sign changes (run longer, or pick a component that oscillates
-        about zero).
+        about zero), or an ensemble trajectory.
     """
+    _one_body(traj, "wobble_period")
     k = _as_component(component)
     y = traj.omega[:, k]
     up = zero_crossings(traj.t, y, direction=1)
@@ -382,7 +413,8 @@ def measured_space_precession_rate(traj) -> float:
     Parameters
     ----------
     traj : Trajectory
-        A free-body run (``L_space`` constant), at least 3 samples.
+        One free body's run (``L_space`` constant; of an ensemble: ``traj.body(i)``), at
+        least 3 samples.
 
     Returns
     -------
@@ -392,9 +424,11 @@ def measured_space_precession_rate(traj) -> float:
     Raises
     ------
     ValueError
-        Too few samples, ``L = 0``, or ``omega`` (nearly) parallel to ``L`` at some
-        sample (rotation about a principal axis: no precession to measure).
+        Too few samples, ``L = 0``, ``omega`` (nearly) parallel to ``L`` at some
+        sample (rotation about a principal axis: no precession to measure), or an
+        ensemble trajectory.
     """
+    _one_body(traj, "measured_space_precession_rate")
     _has_samples(traj, 3, "a linear fit")
     L_mean = np.mean(traj.L_space, axis=0)
     L_norm = float(np.linalg.norm(L_mean))
@@ -444,6 +478,7 @@ def fit_growth_rate(traj, component: int | None = None, window=None) -> float:
     Parameters
     ----------
     traj : Trajectory
+        One body's run (of an ensemble: ``traj.body(i)``).
     component : {0, 1, 2} or None
         Body axis of the growing component, or ``None`` for the transverse amplitude.
     window : None, (t_start, t_end), or boolean mask of shape (len(traj),)
@@ -458,8 +493,10 @@ def fit_growth_rate(traj, component: int | None = None, window=None) -> float:
     ------
     ValueError
         Fewer than 3 usable samples in the window (sample more finely, start with a
-        smaller perturbation, or give the window), or a zero value inside it.
+        smaller perturbation, or give the window), a zero value inside it, or an
+        ensemble trajectory.
     """
+    _one_body(traj, "fit_growth_rate")
     _has_samples(traj, 3, "a linear fit")
     omega = traj.omega
     scale = float(np.linalg.norm(omega[0]))
@@ -634,7 +671,9 @@ def flip_period(moments, L) -> float:
     smallest or largest axis ``T_m`` is the small-oscillation period ``2 pi / nu``.
     Numerically, ``G^2 - E2 I_j = sum_i L_i^2 (I_i - I_j) / I_i`` is formed without
     cancellation and ``K`` is evaluated as ``ellipkm1(k'^2)``, accurate near the
-    separatrix.
+    separatrix; the moments and ``L`` are first rescaled by powers of two
+    (``T_m(c I, s L) = (c / s) T_m(I, L)``), so any ``L`` and moments whose ``T_m`` is
+    a float64 give it (``|L| = 1e300`` as well as ``1e-300``).
 
     Parameters
     ----------
@@ -654,7 +693,7 @@ def flip_period(moments, L) -> float:
         A symmetric or spherical body (the body-frame motion is the uniform wobble of
         :func:`precession_rate`, period ``2 pi / |Omega|``), ``L = 0``, or ``L`` on the
         separatrix ``G^2 = 2 T I2`` (including steady rotation about the intermediate
-        axis), where the period is infinite.
+        axis), where the period is infinite, or a ``T_m`` beyond float64's range.
     """
     from scipy.special import ellipkm1
 
@@ -662,15 +701,20 @@ def flip_period(moments, L) -> float:
     L_in = as_float_array("L", L, shape=(3,))
     order = np.argsort(I_in, kind="stable")
     I1, I2, I3 = (float(v) for v in I_in[order])
-    L2 = L_in[order] ** 2
-    scale = I3
-    if moments_equal(I1, I2, scale) or moments_equal(I2, I3, scale):
+    if moments_equal(I1, I2, I3) or moments_equal(I2, I3, I3):
         raise ValueError(
             f"flip_period needs three distinct moments, got {I_in.tolist()}: a symmetric top "
             "has no flips; its body-frame motion is the uniform wobble at "
             "Omega = omega3 (I3 - I)/I (analysis.precession_rate), period 2 pi/|Omega|")
-    if not np.any(L2 > 0):
+    if not np.any(L_in != 0.0):
         raise ValueError("L must be nonzero (a body at rest has no motion)")
+    # T_m(c I, s L) = (c / s) T_m(I, L): evaluated in units (powers of two, exact) where
+    # the largest moment and the largest |L_i| lie in [1/2, 1), so that L_i^2 and the
+    # products of moments neither overflow nor underflow
+    e_I = math.frexp(I3)[1]
+    e_L = math.frexp(float(np.max(np.abs(L_in))))[1]
+    I1, I2, I3 = (math.ldexp(v, -e_I) for v in (I1, I2, I3))
+    L2 = np.ldexp(L_in[order], -e_L) ** 2
     I = (I1, I2, I3)
     # D_j = G^2 - E2 I_j = sum_i L_i^2 (I_i - I_j) / I_i, without cancellation
     d1 = sum(L2[i] * (I[i] - I1) / I[i] for i in (1, 2))          # >= 0
@@ -690,7 +734,17 @@ def flip_period(moments, L) -> float:
         nu = math.sqrt((I2 - I1) * d3 / prod)
         m1 = (I3 - I1) * (-d2) / ((I2 - I1) * d3)
     m1 = min(max(m1, 0.0), 1.0)
-    return float(4.0 * ellipkm1(m1) / nu)
+    period = float(4.0 * ellipkm1(m1) / nu)
+    if not 0.0 < period < math.inf:  # the moments span beyond float64's range
+        raise ValueError(
+            f"flip_period: moments {I_in.tolist()} span too many orders of magnitude for "
+            f"float64 (I1 I2 I3 / I3^3 underflows)")
+    out = _ldexp("flip_period's T_m", period, e_I - e_L)
+    if out == 0.0:
+        raise ValueError(
+            f"flip_period's T_m underflows float64 (below {np.finfo(np.float64).tiny:.3g}; "
+            f"|L| / moments is too large): rescale the units of L or of the moments")
+    return out
 
 
 # ----------------------------------------------------------------------------------------

@@ -128,8 +128,10 @@ def _scalar(a: np.ndarray):
 def _quaternion(a: np.ndarray) -> Array:
     """``qz(phi) qx(theta) qz(psi)`` of validated angles ``(..., 3)``."""
     phi, theta, psi = a[..., 0], a[..., 1], a[..., 2]
-    sigma = 0.5 * (phi + psi)
-    delta = 0.5 * (phi - psi)
+    # halved before they are added: phi + psi overflows for angles near the float64 limit
+    # (the same numbers otherwise: halving is exact outside the subnormal range)
+    sigma = 0.5 * phi + 0.5 * psi
+    delta = 0.5 * phi - 0.5 * psi
     ct, st = np.cos(0.5 * theta), np.sin(0.5 * theta)
     return np.stack(
         [ct * np.cos(sigma), st * np.cos(delta), st * np.sin(delta), ct * np.sin(sigma)],

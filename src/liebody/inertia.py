@@ -23,6 +23,7 @@ Conventions
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
@@ -114,6 +115,52 @@ def _as_rotation(name: str, value) -> np.ndarray:
     return arr
 
 
+_MAX = float(np.finfo(np.float64).max)
+
+
+def _finite_result(what: str, rule: str, out: np.ndarray) -> np.ndarray:
+    """``out``, or a ``ValueError`` naming ``what`` if an entry overflowed to inf/NaN."""
+    if not np.isfinite(out).all():
+        raise ValueError(
+            f"{what}: the result is beyond the largest float64 ({_MAX:.3g}); {rule}")
+    return out
+
+
+def _pow2_scale(values: np.ndarray, axis=None) -> np.ndarray:
+    """Exponents ``e`` with ``max |values| / 2^e`` in ``[1/2, 1)`` (0 where all are 0)."""
+    big = np.max(np.abs(values), axis=axis, keepdims=axis is not None, initial=0.0)
+    return np.frexp(big)[1]
+
+
+def _center_of_mass(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``sum m_a p_a / sum m_a`` in units (powers of two) where it cannot overflow."""
+    em, ep = _pow2_scale(m), _pow2_scale(p)
+    ms = np.ldexp(m, -em)
+    return np.ldexp((ms @ np.ldexp(p, -ep)) / ms.sum(), ep)
+
+
+def _mass_times_squares(M: float, terms) -> float:
+    """``M sum_j c_j l_j^2`` for ``terms = [(c_j, l_j), ...]``, with the lengths in units
+    of a power of two near the largest and ``M`` split into mantissa and exponent, so
+    that no intermediate overflows or underflows; inf if the value is beyond float64."""
+    lengths = np.array([abs(length) for _, length in terms])
+    el = int(_pow2_scale(lengths))
+    total = sum(c * math.ldexp(length, -el) ** 2 for c, length in terms)
+    mM, eM = math.frexp(M)
+    try:
+        return math.ldexp(mM * total, eM + 2 * el)
+    except OverflowError:
+        return math.inf
+
+
+def _solid(name: str, lengths: str, M: float, *moments) -> np.ndarray:
+    """The principal moments ``[_mass_times_squares(M, terms) for terms in moments]``;
+    a ``ValueError`` naming the solid and its arguments beyond float64."""
+    out = np.array([_mass_times_squares(M, terms) for terms in moments])
+    return _finite_result(name, f"the moments scale as mass * ({lengths})^2: express mass "
+                          f"or {lengths} in larger units", out)
+
+
 # --------------------------------------------------------------------------------------
 # point masses, parallel axis theorem, rotations
 # --------------------------------------------------------------------------------------
@@ -146,8 +193,7 @@ def tensor(masses, positions, origin=None) -> np.ndarray:
         raise ValueError(f"masses must have shape (n,) with n >= 1, got {m.shape}")
     if np.any(m < 0):
         raise ValueError(f"masses must be >= 0, got min(masses) = {float(m.min())}")
-    total = float(m.sum())
-    if not total > 0:
+    if not np.any(m > 0):
         raise ValueError("masses must have a positive total (all masses are zero)")
     p = as_float_array("positions", positions)
     if p.shape != (m.shape[0], 3):
@@ -156,13 +202,22 @@ def tensor(masses, positions, origin=None) -> np.ndarray:
             f"got {p.shape}"
         )
     if origin is None:
-        o = (m @ p) / total
+        o = _center_of_mass(m, p)
     else:
         o = as_float_array("origin", origin, shape=(3,))
-    r = p - o
-    mr = m[:, None] * r
-    out = np.sum(mr * r) * _EYE - mr.T @ r
-    return 0.5 * (out + out.T)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = p - o
+    _finite_result("tensor", "positions - origin overflows: express the positions in larger "
+                   "units", r)
+    # in units 2^em of mass and 2^er of length (exact scalings): no intermediate overflow
+    em, er = _pow2_scale(m), _pow2_scale(r)
+    ms, rs = np.ldexp(m, -em), np.ldexp(r, -er)
+    mr = ms[:, None] * rs
+    out = np.sum(mr * rs) * _EYE - mr.T @ rs
+    with np.errstate(over="ignore"):
+        out = np.ldexp(0.5 * (out + out.T), em + 2 * er)
+    return _finite_result("tensor", "its entries scale as mass * length^2: express the "
+                          "masses or the positions in larger units", out)
 
 
 def parallel_axis(I_cm, mass, a) -> np.ndarray:
@@ -208,9 +263,17 @@ def parallel_axis(I_cm, mass, a) -> np.ndarray:
         raise ValueError(
             f"I_cm (shape {I0.shape}), mass (shape {m.shape}) and a (shape {d.shape}) must "
             f"broadcast against each other over their leading axes") from None
-    a2 = np.sum(d * d, axis=-1)
-    shift = a2[..., None, None] * _EYE - d[..., :, None] * d[..., None, :]
-    return I0 + m[..., None, None] * shift
+    # M (a^2 delta_ij - a_i a_j) in units 2^em of mass and 2^ea of length (exact
+    # scalings), so that a^2 cannot overflow where M a^2 is a float64
+    ea = _pow2_scale(d, axis=-1)
+    ds = np.ldexp(d, -ea)
+    mm, em = np.frexp(m)
+    shift = (np.sum(ds * ds, axis=-1)[..., None, None] * _EYE
+             - ds[..., :, None] * ds[..., None, :])
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = I0 + np.ldexp(mm[..., None, None] * shift, (em[..., None] + 2 * ea)[..., None])
+    return _finite_result("parallel_axis", "I_cm + mass (a^2 1 - a a^T) scales as mass * "
+                          "length^2: express mass or a in larger units", out)
 
 
 def rotate_tensor(I, orientation) -> np.ndarray:
@@ -275,16 +338,14 @@ def thin_disk(mass: float, radius: float) -> np.ndarray:
     """
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
-    mr2 = M * R * R
-    return np.array([mr2 / 4, mr2 / 4, mr2 / 2])
+    return _solid("thin_disk", "radius", M, [(0.25, R)], [(0.25, R)], [(0.5, R)])
 
 
 def thin_ring(mass: float, radius: float) -> np.ndarray:
     """Uniform thin ring (hoop) in the ``xy`` plane: ``(M R^2/2, M R^2/2, M R^2)``."""
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
-    mr2 = M * R * R
-    return np.array([mr2 / 2, mr2 / 2, mr2])
+    return _solid("thin_ring", "radius", M, [(0.5, R)], [(0.5, R)], [(1.0, R)])
 
 
 def thin_rod(mass: float, length: float) -> np.ndarray:
@@ -297,22 +358,21 @@ def thin_rod(mass: float, length: float) -> np.ndarray:
     """
     M = as_positive_float("mass", mass)
     L = as_positive_float("length", length)
-    t = M * L * L / 12
-    return np.array([t, t, 0.0])
+    return _solid("thin_rod", "length", M, [(1 / 12, L)], [(1 / 12, L)], [(0.0, L)])
 
 
 def solid_sphere(mass: float, radius: float) -> np.ndarray:
     """Uniform solid ball: ``2/5 M R^2`` about every axis."""
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
-    return np.full(3, 2 * M * R * R / 5)
+    return _solid("solid_sphere", "radius", M, *[[(0.4, R)]] * 3)
 
 
 def hollow_sphere(mass: float, radius: float) -> np.ndarray:
     """Uniform thin spherical shell: ``2/3 M R^2`` about every axis."""
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
-    return np.full(3, 2 * M * R * R / 3)
+    return _solid("hollow_sphere", "radius", M, *[[(2 / 3, R)]] * 3)
 
 
 def box(mass: float, a: float, b: float, c: float) -> np.ndarray:
@@ -322,10 +382,11 @@ def box(mass: float, a: float, b: float, c: float) -> np.ndarray:
     zero: ``c = 0`` is a thin rectangular plate in the ``xy`` plane.
     """
     M = as_positive_float("mass", mass)
-    a2 = as_positive_float("a", a, allow_zero=True) ** 2
-    b2 = as_positive_float("b", b, allow_zero=True) ** 2
-    c2 = as_positive_float("c", c, allow_zero=True) ** 2
-    return M * np.array([b2 + c2, a2 + c2, a2 + b2]) / 12
+    a = as_positive_float("a", a, allow_zero=True)
+    b = as_positive_float("b", b, allow_zero=True)
+    c = as_positive_float("c", c, allow_zero=True)
+    k = 1 / 12
+    return _solid("box", "a, b, c", M, [(k, b), (k, c)], [(k, a), (k, c)], [(k, a), (k, b)])
 
 
 def solid_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
@@ -336,8 +397,8 @@ def solid_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
     h = as_positive_float("height", height)
-    t = M * (3 * R * R + h * h) / 12
-    return np.array([t, t, M * R * R / 2])
+    t = [(0.25, R), (1 / 12, h)]
+    return _solid("solid_cylinder", "radius, height", M, t, t, [(0.5, R)])
 
 
 def solid_cone(mass: float, radius: float, height: float) -> np.ndarray:
@@ -355,8 +416,8 @@ def solid_cone(mass: float, radius: float, height: float) -> np.ndarray:
     M = as_positive_float("mass", mass)
     R = as_positive_float("radius", radius)
     h = as_positive_float("height", height)
-    t = 3 * M * (4 * R * R + h * h) / 80
-    return np.array([t, t, 3 * M * R * R / 10])
+    t = [(0.15, R), (3 / 80, h)]
+    return _solid("solid_cone", "radius, height", M, t, t, [(0.3, R)])
 
 
 def ellipsoid(mass: float, a: float, b: float, c: float) -> np.ndarray:
@@ -366,10 +427,12 @@ def ellipsoid(mass: float, a: float, b: float, c: float) -> np.ndarray:
     zero (``c = 0``: the flat limit, a uniform elliptic *plate* is a different body).
     """
     M = as_positive_float("mass", mass)
-    a2 = as_positive_float("a", a, allow_zero=True) ** 2
-    b2 = as_positive_float("b", b, allow_zero=True) ** 2
-    c2 = as_positive_float("c", c, allow_zero=True) ** 2
-    return M * np.array([b2 + c2, a2 + c2, a2 + b2]) / 5
+    a = as_positive_float("a", a, allow_zero=True)
+    b = as_positive_float("b", b, allow_zero=True)
+    c = as_positive_float("c", c, allow_zero=True)
+    k = 0.2
+    return _solid("ellipsoid", "a, b, c", M, [(k, b), (k, c)], [(k, a), (k, c)],
+                  [(k, a), (k, b)])
 
 
 # --------------------------------------------------------------------------------------
@@ -489,9 +552,12 @@ def composite(parts: Iterable) -> MassProperties:
             R = _as_rotation(f"parts[{i}].orientation", part.orientation)
             inert = R @ inert @ R.T
         tensors[i] = inert
-    total = float(masses.sum())
-    com = (masses @ positions) / total
-    d = positions - com
+    with np.errstate(over="ignore"):
+        total = _finite_result("composite", "the total mass overflows: express the masses "
+                               "in larger units", np.array(masses.sum())).item()
+    com = _center_of_mass(masses, positions)
+    with np.errstate(over="ignore", invalid="ignore"):
+        d = positions - com
     shifted = parallel_axis(tensors, masses, d)
     out = shifted.sum(axis=0)
     return MassProperties(total, com, 0.5 * (out + out.T))

@@ -16,11 +16,20 @@ broadcasts its arguments like numpy. The arithmetic runs in the numba kernels of
 
 from __future__ import annotations
 
+import math
+import numbers
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from liebody._kernels import quat as _k
-from liebody._validate import UNIT_TOL, as_float_array, as_positive_float, as_unit_quaternion
+from liebody._validate import (
+    UNIT_TOL,
+    as_float_array,
+    as_positive_float,
+    as_unit_quaternion,
+    show,
+)
 
 __all__ = [
     "IDENTITY",
@@ -88,13 +97,52 @@ def multiply(p: ArrayLike, q: ArrayLike) -> Array:
     p, q
         Quaternions, shape ``(..., 4)``, broadcast against each other. They need not
         be unit quaternions.
+
+    Raises
+    ------
+    ValueError
+        A component of the product beyond the largest float64 (``~1.8e308``). Products
+        whose components are representable are returned even where the plain sums of
+        four terms overflow (those rows are redone in rescaled units).
     """
     p = as_float_array("p", p, last_dim=4)
     q = as_float_array("q", q, last_dim=4)
     batch, (a, b) = _rows(p, q, dims=((4,), (4,)), names=("p", "q"))
     out = np.empty_like(a)
     _k.multiply_rows(a, b, out)
+    if not (all(map(math.isfinite, out[0].tolist())) if out.shape[0] == 1
+            else np.isfinite(out).all()):
+        _multiply_rescaled(a, b, out)
     return out.reshape(batch + (4,))
+
+
+def _multiply_rescaled(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """Redo the rows of ``out = a * b`` that overflowed, in units of powers of two.
+
+    A product whose components are all float64 can still overflow in its sums of four
+    terms (``|p_i q_j|`` up to ``|p| |q|``). Each failing row is recomputed as
+    ``2^(e_a + e_b) (a / 2^e_a)(b / 2^e_b)`` with ``max |a_i / 2^e_a|`` in ``[1/2, 1)``
+    (exact scalings), which cannot overflow; a component beyond the largest float64
+    raises ``ValueError``.
+    """
+    rows = np.flatnonzero(~np.isfinite(out).all(axis=1))
+    a, b = a[rows], b[rows]
+    _, ea = np.frexp(np.max(np.abs(a), axis=1, keepdims=True))
+    _, eb = np.frexp(np.max(np.abs(b), axis=1, keepdims=True))
+    scaled = np.empty_like(a)
+    _k.multiply_rows(np.ldexp(a, -ea), np.ldexp(b, -eb), scaled)
+    with np.errstate(over="ignore"):
+        redone = np.ldexp(scaled, ea + eb)
+    if not np.isfinite(redone).all():
+        i = int(np.flatnonzero(~np.isfinite(redone).all(axis=1))[0])
+        big = np.abs(scaled[i]).max()
+        log10 = float(np.log10(big) + (ea[i, 0] + eb[i, 0]) * np.log10(2.0))
+        raise ValueError(
+            f"p * q overflows float64: a component of the product is about "
+            f"{10.0 ** (log10 % 1.0):.2g}e+{int(log10 // 1.0)} "
+            f"(row {int(rows[i])}), beyond the largest float64 "
+            f"{np.finfo(np.float64).max:.3g}; scale p or q down first")
+    out[rows] = redone
 
 
 def conjugate(q: ArrayLike) -> Array:
@@ -272,11 +320,31 @@ def slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> Array:
 
     ``t = 0`` gives ``q0``, ``t = 1`` gives ``q1`` up to sign; the angular speed is
     constant in ``t``. ``q0``, ``q1`` and ``t`` broadcast (``t`` over the batch axes).
+
+    ``t`` may lie outside ``[0, 1]`` (extrapolation along the same great circle), but
+    the rotation it asks for, ``|t|`` times the angle between ``q0`` and ``q1``, must
+    be at most :data:`MAX_ROTATION_ANGLE` (the limit of :func:`exp`); a larger one
+    raises ``ValueError`` (its square overflows, and beyond about ``1e16`` rad the
+    angle modulo ``2 pi`` is lost to rounding anyway). A finite ``t`` is required.
     """
     a = as_unit_quaternion("q0", q0)
     b = as_unit_quaternion("q1", q1)
     t = as_float_array("t", t)
     batch, (a, b, tt) = _rows(a, b, t, dims=((4,), (4,), ()), names=("q0", "q1", "t"))
+    if tt.size and float(np.abs(tt).max()) * np.pi > MAX_ROTATION_ANGLE:
+        # only then can |t| times an angle in [0, pi] exceed the limit
+        r = np.empty_like(a)
+        _k.multiply_rows(a * np.array([1.0, -1.0, -1.0, -1.0]), b, r)
+        angle = 2.0 * np.arctan2(np.linalg.norm(r[:, 1:], axis=1), np.abs(r[:, 0]))
+        turn = np.abs(tt) * angle
+        if np.any(turn > MAX_ROTATION_ANGLE):
+            i = int(np.argmax(turn))
+            raise ValueError(
+                f"t: the interpolated rotation |t| * angle(q0, q1) must be at most "
+                f"MAX_ROTATION_ANGLE = {MAX_ROTATION_ANGLE:g} rad, got |t| = "
+                f"{float(abs(tt[i])):.3g} times an angle of {float(angle[i]):.3g} rad; its "
+                f"square overflows, and beyond about 1e16 rad the angle modulo 2 pi is lost "
+                f"to rounding anyway")
     out = np.empty_like(a)
     _k.slerp_rows(a, b, tt, out)
     return out.reshape(batch + (4,))
@@ -292,17 +360,49 @@ def random(size: int | tuple[int, ...] | None = None,
     Parameters
     ----------
     size
-        Batch shape; ``None`` returns a single ``(4,)`` quaternion.
+        Batch shape: a non-negative integer or a tuple of them; ``None`` returns a
+        single ``(4,)`` quaternion.
     rng
-        A ``numpy.random.Generator`` or a seed for ``numpy.random.default_rng``.
+        A ``numpy.random.Generator``, or what ``numpy.random.default_rng`` takes as a
+        seed: ``None``, a non-negative integer, a ``SeedSequence`` or a ``BitGenerator``.
+
+    Raises
+    ------
+    TypeError
+        ``size`` is not ``None``, an integer or a tuple of integers (a float such as
+        ``2.5`` or a bool is refused), or ``rng`` is none of the above.
+    ValueError
+        A negative ``size`` entry or a negative integer seed.
     """
+    shape = _random_shape(size)
     if not isinstance(rng, np.random.Generator):
+        if not (rng is None or isinstance(rng, np.random.SeedSequence | np.random.BitGenerator)
+                or (isinstance(rng, numbers.Integral) and not isinstance(rng, bool | np.bool_))):
+            raise TypeError(
+                f"rng must be a numpy.random.Generator, None, a non-negative integer seed, a "
+                f"SeedSequence or a BitGenerator, got {type(rng).__name__}")
+        if isinstance(rng, numbers.Integral) and int(rng) < 0:
+            raise ValueError(f"rng: an integer seed must be >= 0, got {show(rng)}")
         rng = np.random.default_rng(rng)
-    shape = () if size is None else ((size,) if np.isscalar(size) else tuple(size))
     g = rng.standard_normal(shape + (4,))
     n = np.linalg.norm(g, axis=-1, keepdims=True)
     q = g / n
     return np.where(q[..., :1] < 0.0, -q, q)
+
+
+def _random_shape(size) -> tuple[int, ...]:
+    """The batch shape of :func:`random`'s ``size``, validated."""
+    if size is None:
+        return ()
+    entries = size if isinstance(size, tuple | list) else (size,)
+    for n in entries:
+        if isinstance(n, bool | np.bool_) or not isinstance(n, numbers.Integral):
+            raise TypeError(
+                f"size must be None, a non-negative integer or a tuple of them, got "
+                f"{show(size)} ({type(n).__name__} entry)")
+        if n < 0:
+            raise ValueError(f"size must be non-negative (a batch shape), got {show(size)}")
+    return tuple(int(n) for n in entries)
 
 
 def angle_between(p: ArrayLike, q: ArrayLike) -> Array:
@@ -319,8 +419,22 @@ def to_scipy(q: ArrayLike) -> Array:
 
 
 def from_scipy(q_xyzw: ArrayLike) -> Array:
-    """scipy's scalar-last ``(x, y, z, w)`` to scalar-first ``(w, x, y, z)``."""
+    """scipy's scalar-last unit quaternions ``(x, y, z, w)`` to scalar-first ``(w, x, y, z)``.
+
+    Like every function here that takes a rotation, it requires unit quaternions,
+    ``| |q| - 1 | <= 1e-10`` (``liebody._validate.UNIT_TOL``); anything else raises
+    ``ValueError`` (scipy's ``Rotation.from_quat`` normalises silently;
+    ``Rotation.as_quat`` returns unit quaternions, which are accepted). The numbers are
+    only reordered, bit for bit, sign included: ``from_scipy(to_scipy(q)) == q``.
+    """
     q = as_float_array("q_xyzw", q_xyzw, last_dim=4)
+    dev = np.abs(np.linalg.norm(q, axis=-1) - 1.0)
+    if np.any(dev > UNIT_TOL):
+        raise ValueError(
+            f"q_xyzw must be scipy's scalar-last unit quaternions (x, y, z, w): "
+            f"| |q| - 1 | = {float(np.max(dev)):.3e} exceeds the tolerance {UNIT_TOL:.1e}. "
+            f"Normalise it first, or build a Rotation with Rotation.from_quat(q_xyzw), which "
+            f"normalises, and convert that with from_rotation")
     return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
 
 

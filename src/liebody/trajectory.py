@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -10,7 +11,7 @@ import numpy as np
 from liebody._methods import Method
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trajectory:
     """Saved samples of a run. Memory is exactly the saved samples.
 
@@ -46,6 +47,10 @@ class Trajectory:
 
     The arrays are read-only: derived quantities (``orientation``, energies, ...) are
     computed from them once and stay valid.
+
+    Equality is identity: ``a == b`` only if ``a is b`` (and trajectories hash by
+    identity). Two runs with the same numbers are distinct results; compare their
+    samples with ``numpy.array_equal(a.q, b.q)`` etc.
     """
 
     t: np.ndarray
@@ -78,6 +83,49 @@ class Trajectory:
     def n_bodies(self) -> int | None:
         """The number of bodies of an ensemble run; ``None`` for one body."""
         return self.q.shape[0] if self.q.ndim == 3 else None
+
+    def body(self, i: int) -> Trajectory:
+        """Body ``i`` of an ensemble run as a one-body trajectory.
+
+        Its samples are those body ``i`` reached (a failed body's NaN samples after its
+        failure are left out), its scene is ``scene.take(i)`` when the scene is batched,
+        and ``failed_at``, ``status`` and ``diagnostics`` are body ``i``'s. The arrays
+        are views of this trajectory's (read-only).
+
+        Parameters
+        ----------
+        i : int
+            Index of the body, ``-n_bodies <= i < n_bodies``.
+
+        Raises
+        ------
+        ValueError
+            A one-body trajectory (it has no bodies to pick), or ``i`` out of range.
+        TypeError
+            ``i`` not an integer.
+        """
+        n = self.n_bodies
+        if n is None:
+            raise ValueError("body(i) picks one body of an ensemble trajectory (q of shape "
+                             f"(N, n, 4)); this one is one body's (q of shape {self.q.shape})")
+        if isinstance(i, bool | np.bool_) or not isinstance(i, numbers.Integral):
+            raise TypeError(f"i must be an integer body index, got {type(i).__name__}")
+        if not -n <= int(i) < n:
+            raise ValueError(f"i must be a body index in [-{n}, {n}), got {int(i)}")
+        i = int(i) % n
+        q, L = self.q[i], self.L[i]
+        ok = np.isfinite(q).all(axis=-1) & np.isfinite(L).all(axis=-1)
+        keep = len(ok) if ok.all() else int(np.argmin(ok))  # finite samples come first
+        failed = None if self.failed_at is None else float(np.asarray(self.failed_at)[i])
+        scene = self.scene.take(i) if getattr(self.scene, "batch_shape", ()) else self.scene
+        diag = None
+        if self.diagnostics is not None:
+            diag = {k: (float(np.asarray(v)[i]) if np.ndim(v) else v)
+                    for k, v in self.diagnostics.items()}
+        return Trajectory(self.t[:keep], q[:keep], L[:keep], scene, self.method, self.dt,
+                          failed_at=None if failed is None or np.isnan(failed) else failed,
+                          info=self.info, status=str(np.asarray(self.status)[i]),
+                          diagnostics=diag)
 
     @property
     def moments(self) -> np.ndarray:

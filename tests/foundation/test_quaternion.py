@@ -246,6 +246,52 @@ def test_random_is_seeded_and_uniform():
     assert np.abs(Q.to_matrix(a).mean(axis=0)).max() < 6 * 0.58 / np.sqrt(20000)
 
 
+@pytest.mark.parametrize("size, shape", [(0, (0, 4)), (3, (3, 4)), (np.int64(2), (2, 4)),
+                                         ((2, 3), (2, 3, 4)), ((), (4,)), (None, (4,))])
+def test_random_shapes(size, shape):
+    q = Q.random(size, rng=1)
+    assert q.shape == shape and np.all(Q.is_unit(q, tol=1e-14))
+
+
+@pytest.mark.parametrize("size, exc", [(-1, ValueError), ((2, -1), ValueError),
+                                       (2.5, TypeError), (2.0, TypeError), (True, TypeError),
+                                       ("3", TypeError), ((2, 1.5), TypeError)])
+def test_random_refuses_a_bad_size_naming_it(size, exc):
+    with pytest.raises(exc, match=r"^size must be .*(integer|non-negative)"):
+        Q.random(size, rng=1)
+
+
+@pytest.mark.parametrize("rng, exc, match", [
+    ("abc", TypeError, r"^rng must be a numpy.random.Generator.*got str"),
+    (1.5, TypeError, r"^rng must be a numpy.random.Generator.*got float"),
+    (True, TypeError, r"^rng must be a numpy.random.Generator.*got bool"),
+    (-1, ValueError, r"^rng: an integer seed must be >= 0, got -1"),
+])
+def test_random_refuses_a_bad_rng_naming_it(rng, exc, match):
+    with pytest.raises(exc, match=match):
+        Q.random(2, rng=rng)
+
+
+def test_random_takes_what_default_rng_takes():
+    ref = Q.random(3, rng=np.random.default_rng(np.random.SeedSequence(4)))
+    np.testing.assert_array_equal(Q.random(3, rng=np.random.SeedSequence(4)), ref)
+    np.testing.assert_array_equal(Q.random(3, rng=np.random.PCG64(np.random.SeedSequence(4))),
+                                  ref)
+
+
+def test_from_scipy_refuses_non_unit_quaternions():
+    with pytest.raises(ValueError, match=r"q_xyzw must be scipy's scalar-last unit quaternions"
+                                         r".*tolerance 1\.0e-10"):
+        Q.from_scipy([1.0, 2.0, 3.0, 4.0])
+    with pytest.raises(ValueError, match=r"q_xyzw"):
+        Q.from_scipy([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0 + 1e-9]])
+    # within the tolerance: accepted, and only reordered (scipy normalises silently)
+    xyzw = np.array([0.0, 0.6, 0.0, 0.8 * (1 + 1e-12)])
+    np.testing.assert_array_equal(Q.from_scipy(xyzw), xyzw[[3, 0, 1, 2]])
+    r = Rotation.from_quat([1.0, 2.0, 3.0, 4.0])  # the documented way for raw numbers
+    np.testing.assert_allclose(Q.to_matrix(Q.from_rotation(r)), r.as_matrix(), atol=1e-15)
+
+
 def test_angle_between_sign_invariant():
     q = Q.random(10, rng=9)
     r = Q.exp(np.array([0.0, 0.0, 0.7]))

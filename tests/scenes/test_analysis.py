@@ -515,6 +515,79 @@ def test_measured_space_precession_rate_synthetic():
 
 
 # ------------------------------------------------------------------------------------------
+# ensembles: the measurements take one body; Trajectory.body(i) and equality
+# ------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def free_ensemble():
+    body = liebody.RigidBody([1.0, 2.0, 3.0])
+    q0 = liebody.quaternion.random(3, rng=1)
+    L0 = np.array([[1.0, 0.1, 0.2], [0.2, 0.1, 1.0], [0.05, 1.0, 1e-9]])
+    scene = liebody.FreeBody(body)
+    return scene, q0, L0, liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, t_end=30.0)
+
+
+@pytest.mark.parametrize("measure", [analysis.wobble_period, analysis.fit_growth_rate,
+                                     analysis.measured_space_precession_rate])
+def test_measurements_refuse_an_ensemble_naming_the_way_out(free_ensemble, measure):
+    traj = free_ensemble[3]
+    assert traj.q.shape[:2] == (3, len(traj))
+    with pytest.raises(ValueError, match=rf"^{measure.__name__} takes one body's trajectory"
+                                         r".*ensemble of 3 bodies.*traj\.body\(i\)"):
+        measure(traj)
+
+
+def test_body_of_an_ensemble_is_that_body_run_alone(free_ensemble):
+    scene, q0, L0, traj = free_ensemble
+    for i in (0, 1, 2, -1):
+        one = traj.body(i)
+        alone = liebody.integrate(scene, q0=q0[i], L0=L0[i], dt=0.01, t_end=30.0)
+        assert one.n_bodies is None and one.q.shape == alone.q.shape
+        np.testing.assert_array_equal(one.t, alone.t)
+        np.testing.assert_allclose(one.q, alone.q, atol=1e-12, rtol=0)
+        np.testing.assert_allclose(one.L, alone.L, atol=1e-12, rtol=0)
+        assert one.status == "complete" and one.failed_at is None
+    # and the measurements work on it, as on the body run alone (L0[0]: about the
+    # smallest axis; L0[1]: about the largest)
+    alone = liebody.integrate(scene, q0=q0[1], L0=L0[1], dt=0.01, t_end=30.0)
+    assert analysis.wobble_period(traj.body(1)) == pytest.approx(analysis.wobble_period(alone),
+                                                                 rel=1e-10)
+    expected = analysis.flip_period(scene.moments, L0[1])
+    assert analysis.wobble_period(traj.body(1)) == pytest.approx(expected, rel=1e-4)
+
+
+def test_body_of_a_batched_scene_takes_that_body():
+    bodies_ = liebody.RigidBody.batch([[1.0, 2.0, 3.0], [2.0, 3.0, 5.0]])
+    scene = liebody.FreeBody(bodies_)
+    L0 = [[1.0, 0.2, 0.1], [0.3, 0.1, 1.0]]
+    traj = liebody.integrate(scene, L0=L0, dt=0.01, steps=100)
+    one = traj.body(1)
+    np.testing.assert_array_equal(one.moments, [2.0, 3.0, 5.0])
+    np.testing.assert_allclose(one.omega, traj.L[1] / np.array([2.0, 3.0, 5.0]), rtol=1e-15)
+
+
+def test_body_validation(free_ensemble):
+    traj = free_ensemble[3]
+    with pytest.raises(ValueError, match=r"i must be a body index in \[-3, 3\), got 3"):
+        traj.body(3)
+    with pytest.raises(TypeError, match=r"i must be an integer"):
+        traj.body(1.0)
+    with pytest.raises(ValueError, match=r"body\(i\) picks one body of an ensemble"):
+        traj.body(0).body(0)
+
+
+def test_trajectory_equality_is_identity(free_ensemble):
+    scene, q0, L0, traj = free_ensemble
+    a = liebody.integrate(scene, q0=q0[0], L0=L0[0], dt=0.01, steps=10)
+    b = liebody.integrate(scene, q0=q0[0], L0=L0[0], dt=0.01, steps=10)
+    assert np.array_equal(a.q, b.q)  # the same numbers ...
+    assert (a == a) is True and (a == b) is False and (a != b) is True  # ... two results
+    assert traj == traj and traj != traj.body(0)
+    assert len({a, b, a}) == 2  # hashable, by identity
+
+
+# ------------------------------------------------------------------------------------------
 # validation of the scalar closed forms
 # ------------------------------------------------------------------------------------------
 
