@@ -30,7 +30,7 @@ from numba import njit
 from bench.problems import Problem
 
 # the one private kernel the benchmarks use: Gamma = R(q)^T e_z inside a numba RHS
-from liebody._kernels.torque import vertical_in_body
+from liebody._models.uniform_gravity import vertical_in_body
 
 SCIPY_METHODS = ("RK45", "DOP853")
 MUJOCO_INTEGRATORS = ("Euler", "RK4", "implicitfast")

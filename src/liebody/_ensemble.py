@@ -85,7 +85,7 @@ class EnsembleRun:
         self.saved = np.zeros(n, dtype=np.int64)
         self.info: dict = {}
         self.diag = diagnostics
-        self.dref = (diagnostic_reference(scene, model, q0, m0) if diagnostics
+        self.dref = (diagnostic_reference(scene, model, q0, m0, t0) if diagnostics
                      else np.zeros((n, 10)))
         self.dmax = np.zeros((n, 3))
 
@@ -208,7 +208,7 @@ class EnsembleRun:
                     self.save_every,
                     final, g["state"][c], g["ctl"][c],
                     g["q"][c], g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
-                    self.model.address, g["dref"][c], g["dmax"][c])
+                    self.model.address, p.model_rows(c), g["dref"][c], g["dmax"][c])
 
     def _collect(self, work) -> None:
         for g in work:
@@ -282,15 +282,14 @@ def _simd():
 
 
 def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """The running diagnostics of the kernels (``driver._diagnose``) over saved samples:
-    ``dref`` ``(N, 10)``, ``q`` ``(N, n, 4)``, ``m`` ``(N, n, 3)`` -> ``(N, 3)``."""
+    """The running diagnostics of the kernels (``driver._diagnose``) over saved samples of
+    the exact free flow (no potential): ``dref`` ``(N, 10)``, ``q`` ``(N, n, 4)``, ``m``
+    ``(N, n, 3)`` -> ``(N, 3)``."""
     w, x, y, z = np.moveaxis(q, -1, 0)
     n2 = w * w + x * x + y * y + z * z
     d = dref[:, None, :]
     T = 0.5 * np.sum(m * m * d[..., :3], axis=-1)
-    V = (d[..., 3] * 2 * (x * z - w * y) + d[..., 4] * 2 * (y * z + w * x)
-         + d[..., 5] * (w * w - x * x - y * y + z * z)) / n2
-    e = np.abs(T + V - d[..., 6]) * d[..., 7]
+    e = np.abs(T - d[..., 6]) * d[..., 7]
     qe = np.abs(np.sqrt(n2) - 1.0)
     le = np.abs(np.linalg.norm(m, axis=-1) - d[..., 8]) * d[..., 9]
     return np.stack([np.max(e, axis=1), np.max(qe, axis=1), np.max(le, axis=1)], axis=1)

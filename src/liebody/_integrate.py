@@ -452,24 +452,31 @@ def write_controls(params: np.ndarray, u: np.ndarray) -> None:
         params[..., S.P_U0:S.P_U0 + k] = u
 
 
-def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray) -> np.ndarray:
+def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float = 0.0
+                         ) -> np.ndarray:
     """The kernel's reference values for the running diagnostics, ``(N, 10)``:
-    ``1/I``, the gravity constants ``c``, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``."""
+    ``1/I``, the torque model's code, 0, 0, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``
+    (``E0`` NaN where the kernels cannot follow the energy: a user's Python potential,
+    a potential that depends on the time)."""
+    from liebody._models.dispatch import potentials
+
     q0, m0 = np.atleast_2d(q0), np.atleast_2d(m0)
     n = q0.shape[0]
     inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
-    c = np.broadcast_to(np.asarray(model.constants, dtype=float), (n, 3))
-    if model.code != S.TORQUE_GRAVITY:
-        c = np.zeros((n, 3))
     T0 = 0.5 * np.sum(m0 * m0 * inv, axis=1)
-    w, x, y, z = q0.T
-    V0 = c[:, 0] * 2 * (x * z - w * y) + c[:, 1] * 2 * (y * z + w * x) + c[:, 2] * (
-        w * w - x * x - y * y + z * z)
-    if model.code == S.TORQUE_USER and scene.capabilities.conservative:
-        V0 = np.full(n, np.nan)  # a Python potential the kernel cannot evaluate
+    V0 = np.zeros(n)
+    potentials(model.code, model.params, np.full(n, float(t0)), np.ascontiguousarray(q0), V0)
+    code = np.full(n, float(model.code))
+    if model.code == S.TORQUE_USER:  # a Python potential, which the kernels cannot call
+        code[:] = S.TORQUE_NONE  # (without one, the energy error is the change of T)
+        V0[:] = np.nan if scene.capabilities.conservative else 0.0
+    if model.time_dependent:
+        V0[:] = np.nan
     g = np.linalg.norm(m0, axis=1)
-    with np.errstate(divide="ignore"):
-        ref = np.column_stack([inv, c, T0 + V0, 1.0 / (T0 + np.abs(V0)), g, 1.0 / g])
+    zero = np.zeros(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ref = np.column_stack([inv, code, zero, zero, T0 + V0, 1.0 / (T0 + np.abs(V0)), g,
+                               1.0 / g])
     return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
 
 
@@ -495,7 +502,7 @@ class _Run:
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
         self.diag = diagnostics
-        self.dref = (diagnostic_reference(scene, model, q0, m0)[0] if diagnostics
+        self.dref = (diagnostic_reference(scene, model, q0, m0, t0)[0] if diagnostics
                      else np.zeros(10))
         self.dmax = np.zeros(3)
         n = t.shape[0]
@@ -551,6 +558,7 @@ class _Run:
         self.info = plan.info
         runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
         params = plan.params[0]
+        mp = plan.model[0]
         if self.u is not None:
             params = params.copy()
             write_controls(params, self.u)
@@ -565,13 +573,13 @@ class _Run:
             if self.n_steps <= FIRST_SLICE and not self.progress:  # a short run: one call
                 done, saved, status = runner(*table, self.dt, self.t0, 0.0, self.n_steps,
                                              self.save_every, True, state, ctl, self.q_out[1:],
-                                             self.m_out[1:], addr, self.dref, self.dmax)
+                                             self.m_out[1:], addr, mp, self.dref, self.dmax)
             else:
                 for n in self._slices(self.n_steps, "step"):
                     d, s, status = runner(*table, self.dt, self.t0, float(done), n,
                                           self.save_every, done + n == self.n_steps, state, ctl,
                                           self.q_out[1 + saved:], self.m_out[1 + saved:],
-                                          addr, self.dref, self.dmax)
+                                          addr, mp, self.dref, self.dmax)
                     done += d
                     saved += s
                     if status != S.STATUS_OK:
@@ -735,7 +743,7 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
     if (method.symplectic or method.keeps_energy) and caps.conservative:
         V0 = V1 = 0.0
         if caps.torque:
-            V0, V1 = _end_potentials(scene, q0, q1)
+            V0, V1 = _end_potentials(scene, q0, q1, float(traj.t[0]), float(traj.t[-1]))
         e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
         if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
             out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
@@ -746,20 +754,16 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
     return out
 
 
-def _gravity_potential(c, q) -> float:
-    """``V = c . (R(q)^T e_z)`` of uniform gravity (``c = M g cm``), scalar arithmetic."""
-    w, x, y, z = q
-    n2 = w * w + x * x + y * y + z * z
-    return (c[0] * 2.0 * (x * z - w * y) + c[1] * 2.0 * (y * z + w * x)
-            + c[2] * (w * w - x * x - y * y + z * z)) / n2
-
-
-def _end_potentials(scene, q0: list, q1: list) -> tuple[float, float]:
-    """The scene's potential at the first and last orientation (normalised)."""
+def _end_potentials(scene, q0: list, q1: list, t0: float = 0.0, t1: float = 0.0
+                    ) -> tuple[float, float]:
+    """The scene's potential at the first and last orientation (normalised) and times."""
     model = scene.torque_model()
-    if model.code == S.TORQUE_GRAVITY and np.ndim(model.constants) == 1:
-        c = model.constants.tolist()
-        return _gravity_potential(c, q0), _gravity_potential(c, q1)
+    if model.code != S.TORQUE_USER:  # a model's kernel: a few microseconds
+        from liebody._models.dispatch import potentials
+
+        V = np.zeros(2)
+        potentials(model.code, model.params, np.array([t0, t1]), np.array([q0, q1]), V)
+        return float(V[0]), float(V[1])
     ends = np.array([q0, q1])
     V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[:, None]))
     return float(V[0]), float(V[1])

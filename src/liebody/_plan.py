@@ -57,7 +57,8 @@ class Bodies:
 
     moments: np.ndarray  # (N, 3)
     momenta: np.ndarray  # (N, 3): the initial momenta, read through m0
-    weight_arm: np.ndarray  # (N, 3): the torque constants (uniform gravity: M g cm)
+    #: the torque model's parameter blocks, ``(1, k)`` shared by every body or ``(N, k)``
+    model_params: np.ndarray
     eps: np.ndarray  # (N,): dissipation strength
     capabilities: object
     free_flow: str
@@ -80,15 +81,16 @@ class Bodies:
         model = scene.torque_model()
         m0 = np.asarray(m0, dtype=float)
         moments = np.asarray(scene.moments, dtype=float)
-        c = np.asarray(model.constants, dtype=float)
+        mp = model.params
         eps = np.asarray(scene.dissipation, dtype=float)
-        n = np.broadcast_shapes(m0.shape[:-1], moments.shape[:-1], c.shape[:-1], eps.shape)
+        n = np.broadcast_shapes(m0.shape[:-1], moments.shape[:-1], eps.shape,
+                                mp.shape[:1] if mp.shape[0] > 1 else ())
         size = int(np.prod(n)) if n else 1
 
         def rows(a, width):
             return np.ascontiguousarray(np.broadcast_to(a, n + (width,)).reshape(size, width))
 
-        return cls(rows(moments, 3), rows(m0, 3), rows(c, 3),
+        return cls(rows(moments, 3), rows(m0, 3), mp,
                    np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)),
                    scene.capabilities, scene.free_flow, model.code)
 
@@ -97,11 +99,15 @@ class Bodies:
 
     def take(self, idx) -> Bodies:
         out = replace(self, moments=self.moments[idx], momenta=self.momenta[idx],
-                      weight_arm=self.weight_arm[idx], eps=self.eps[idx])
+                      model_params=self._model_rows(idx), eps=self.eps[idx])
         memo = self.__dict__.get("_orderings")
         if memo:  # the orbits' ordering choices, for the bodies taken
             out.__dict__["_orderings"] = {k: (o[idx], sc[idx]) for k, (o, sc) in memo.items()}
         return out
+
+    def _model_rows(self, idx) -> np.ndarray:
+        mp = self.model_params
+        return mp if mp.shape[0] == 1 else np.ascontiguousarray(mp[idx])
 
     def orderings(self, pieces_of) -> tuple[np.ndarray, np.ndarray]:
         """:func:`liebody._ordering.best_orderings` of these bodies (index and score per
@@ -168,8 +174,9 @@ class Stage:
         Rate of a rotation (``rate * m_k^2 / 2`` or ``rate * |m|^2 / 2``).
     moments
         Principal moments (DMV, exact flow, dissipation, baselines).
-    torque, c
-        Torque code and constants (kicks, baselines).
+    torque
+        Torque model code (kicks, baselines); the model's parameters travel apart, in
+        :attr:`Plan.model`.
     eps
         Dissipation strength (dissipation, baselines).
     """
@@ -181,7 +188,6 @@ class Stage:
     rate: object = 0.0
     moments: object = (0.0, 0.0, 0.0)
     torque: int = S.TORQUE_NONE
-    c: object = (0.0, 0.0, 0.0)
     eps: object = 0.0
 
     def __post_init__(self) -> None:
@@ -200,7 +206,6 @@ class Stage:
             p[:, S.P_I1:S.P_I3 + 1] = self.moments
             p[:, S.P_RATE] = self.rate
             p[:, S.P_TORQUE] = float(self.torque)
-            p[:, S.P_C1:S.P_C3 + 1] = self.c
             p[:, S.P_EPS] = self.eps
             cache[n] = p
         return p
@@ -236,7 +241,8 @@ def sphere(coef: float, rate, clock: float = 0.0) -> Stage:
 class Plan:
     """A method made concrete for a group of bodies, their initial state and step.
 
-    ``params`` has a leading body axis ``(N, s, N_PARAMS)``; the structure (``kinds``,
+    ``params`` has a leading body axis ``(N, s, N_PARAMS)``, ``model`` holds the torque
+    model's parameter blocks (``(1, k)`` shared, or ``(N, k)``); the structure (``kinds``,
     ``axes``, ``coefs``, ``clock``, ``merge_ends``) is common. ``family`` is the driver
     family (``stages.F_*``) that runs it; ``info`` records the set-up choices (axis
     ordering, base of a composition, ...), shown as ``Trajectory.info``.
@@ -250,13 +256,24 @@ class Plan:
     merge_ends: bool
     family: int
     info: dict = field(default_factory=dict)
+    model: np.ndarray = field(default_factory=lambda: _NO_MODEL)
+
+    def model_rows(self, c) -> np.ndarray:
+        """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
+        return self.model if self.model.shape[0] == 1 else self.model[c]
 
     @property
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
 
 
-def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1) -> Plan:
+#: the parameter block of a scene without a torque model
+_NO_MODEL = np.zeros((1, 1))
+_NO_MODEL.flags.writeable = False
+
+
+def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
+                 model: np.ndarray | None = None) -> Plan:
     """Build a :class:`Plan` for ``n`` bodies: drop identity stages, merge adjacent flows
     of one Hamiltonian (for every body of the group)."""
     merged: list[Stage] = []
@@ -284,6 +301,7 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1) -> P
         merge_ends=len(merged) > 1 and _mergeable(merged[0], merged[-1], n),
         family=S.family_of(kinds),
         info=dict(info or {}),
+        model=_NO_MODEL if model is None else model,
     )
 
 
@@ -400,7 +418,7 @@ def scene_step(b: Bodies, drift: list[Stage], info: dict) -> tuple[list[Stage], 
     info = dict(info)
     opening, closing = [], []
     if caps.torque:
-        kick = Stage(S.KICK, 0.5, torque=b.torque_code, c=b.weight_arm)
+        kick = Stage(S.KICK, 0.5, torque=b.torque_code)
         opening.append(kick)
         if "momentum" in caps.torque:
             closing.append(replace(kick, kind=S.KICK_IMPLICIT))
@@ -736,8 +754,7 @@ class FlowSequence(Recipe):
                 out.append(Stage(S.EXACT, frac, clock, moments=b.moments))
             elif name == "kick":
                 if not torque_free:  # (a free body has nothing to kick, nor a clock)
-                    out.append(Stage(S.KICK, frac, clock, torque=b.torque_code,
-                                     c=b.weight_arm))
+                    out.append(Stage(S.KICK, frac, clock, torque=b.torque_code))
             else:
                 out.append(Stage(S.DAMP, frac, clock, moments=b.moments, eps=b.eps))
         return out, {"flows": self.flows}
@@ -755,7 +772,7 @@ class Baseline(Recipe):
 
     def stages(self, b, h, key):
         return [Stage(self.kind, 1.0, 1.0, moments=b.moments, torque=b.torque_code,
-                      c=b.weight_arm, eps=b.eps)], {}
+                      eps=b.eps)], {}
 
 
 def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, Plan]]:
@@ -767,7 +784,7 @@ def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, P
         idx = np.flatnonzero(keys == key)
         sub = b if len(idx) == len(b) else b.take(idx)
         stages, info = recipe.stages(sub, h, int(key))
-        out.append((idx, compile_plan(stages, info, len(idx))))
+        out.append((idx, compile_plan(stages, info, len(idx), sub.model_params)))
     return out
 
 

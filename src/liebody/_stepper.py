@@ -177,7 +177,7 @@ class Stepper:
             self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
                           bool(plan.merge_ends), self._dt)
             self._tail = (True, self._state, self._ctl, np.empty((1, 4)), np.empty((1, 3)),
-                          self._model.address, np.zeros(10), np.zeros(3))
+                          self._model.address, plan.model[0], np.zeros(10), np.zeros(3))
             runner = RUNNERS[plan.family]
             self._ctl[:] = (1, 0)
             args = [*self._head, self._t0, 0.0, 0, 1, *self._tail]
@@ -320,7 +320,8 @@ class Stepper:
                                 self._dt, self._t0, step0, k, n, final, g["state"][c],
                                 g["ctl"][c],
                                 g["q"][c], g["m"][c], g["saved"][c], g["done"][c],
-                                g["status"][c], self._model.address, g["dref"][c],
+                                g["status"][c], self._model.address,
+                                g["plan"].model_rows(c), g["dref"][c],
                                 g["dmax"][c])
 
                 if pool is None:

@@ -42,17 +42,22 @@ function is built in ``__init__``; a top with a different mass distribution is a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 
-from liebody._kernels.stages import TORQUE_GRAVITY, TORQUE_NONE, TORQUE_USER
+from liebody._kernels.stages import (
+    TORQUE_GRAVITY,
+    TORQUE_GRAVITY_GRADIENT,
+    TORQUE_NONE,
+    TORQUE_USER,
+)
 from liebody._validate import as_float_array, as_positive_float
 from liebody.rigid_body import RigidBody
 
-__all__ = ["Capabilities", "ControlledBody", "DampedBody", "FreeBody", "HeavyTop", "Scene",
-           "TorqueBody", "TorqueModel"]
+__all__ = ["Capabilities", "ControlledBody", "DampedBody", "FreeBody", "GravityGradient",
+           "HeavyTop", "Scene", "TorqueBody", "TorqueModel"]
 
 #: what a torque may depend on
 DEPENDENCIES = ("time", "orientation", "momentum")
@@ -130,25 +135,45 @@ def _memo(scene, name: str, make):
 _FREE = Capabilities()
 _GRAVITY = Capabilities(torque=frozenset({"orientation"}), conservative=True)
 _DAMPED = Capabilities(conservative=False, dissipative=True)
+_GRAVITY_GRADIENT = Capabilities(torque=frozenset({"time", "orientation"}), conservative=False)
+
+
+def _block(params) -> np.ndarray:
+    """A model's parameter blocks as a read-only C-contiguous ``(rows, k)`` float64 array:
+    ``(k,)`` becomes one shared row."""
+    p = np.array(params, dtype=np.float64, ndmin=1)
+    if p.ndim == 1:
+        p = p[None, :]
+    if p.shape[1] == 0:
+        p = np.zeros((p.shape[0], 1))
+    p = np.ascontiguousarray(p)
+    p.flags.writeable = False  # a scene memoises its model: shared, never written
+    return p
 
 
 @dataclass(frozen=True)
 class TorqueModel:
     """How the kernels evaluate a scene's torque (part of the scene contract).
 
-    ``code`` is one of the kernel torque codes (none, uniform gravity, user
-    callback), ``constants`` the gravity constants ``M g cm`` (body frame), and for a
-    user torque ``address`` the address of its compiled C callback and ``function`` the
-    user's own ``@njit`` function (which the Python side calls to check it and to
-    report its errors), taking ``controls`` control inputs. Build one with
-    :meth:`none`, :meth:`gravity` or :meth:`user`.
+    ``code`` names the physics model (a ``TORQUE_*`` code; the kernels of each model live
+    in a module of its own under ``liebody._models``), ``params`` is the model's parameter
+    block, ``(1, k)`` shared by every body or ``(N, k)`` one row per body, and for a user
+    torque ``address`` is the address of its compiled C callback and ``function`` the
+    user's own ``@njit`` function (which the Python side calls to check it and to report
+    its errors), taking ``controls`` control inputs and, when ``takes_params``, the
+    body's parameter row. Build one with :meth:`none`, :meth:`gravity`,
+    :meth:`gravity_gradient` or :meth:`user`.
     """
 
     code: int = TORQUE_NONE
-    constants: object = (0.0, 0.0, 0.0)  # (3,), or (N, 3) for a batch of bodies
+    params: np.ndarray = field(default_factory=lambda: _block(0.0))
     address: int = 0
     function: object = None
     controls: int = 0
+    takes_params: bool = False
+    #: the potential depends on the time: the energy is not conserved (a Hamiltonian of
+    #: its own, the Jacobi integral, may be), and the energy diagnostics are NaN
+    time_dependent: bool = False
 
     @classmethod
     def none(cls) -> TorqueModel:
@@ -158,31 +183,46 @@ class TorqueModel:
     def gravity(cls, weight_arm) -> TorqueModel:
         """Uniform gravity ``-g e_z`` on a body whose ``M g cm`` is ``weight_arm`` (``(3,)``,
         or ``(N, 3)`` for a batch)."""
-        c = np.array(weight_arm, dtype=float)
-        c.flags.writeable = False  # a scene memoises its model: shared, never written
-        return cls(TORQUE_GRAVITY, c)
+        return cls(TORQUE_GRAVITY, _block(weight_arm))
 
     @classmethod
-    def user(cls, torque, controls: int = 0) -> TorqueModel:
-        """A numba ``@njit`` function ``torque(t, q, L) -> (3,)``, or with ``controls = k``
-        control inputs ``torque(t, q, L, u) -> (3,)`` (compiled once per process)."""
-        return cls(TORQUE_USER, address=_callback(torque, controls), function=torque,
-                   controls=controls)
+    def gravity_gradient(cls, blocks) -> TorqueModel:
+        """Point masses on orbits (:class:`GravityGradient`): ``blocks`` as laid out by
+        ``liebody._models.gravity_gradient``."""
+        return cls(TORQUE_GRAVITY_GRADIENT, _block(blocks), time_dependent=True)
 
-    def __call__(self, t: float, q: np.ndarray, L: np.ndarray, u=None) -> np.ndarray:
-        """The user torque at one state, called from Python (``u``: the controls, zero
-        when not given); raises what the torque raises."""
+    @classmethod
+    def user(cls, torque, controls: int = 0, params=None) -> TorqueModel:
+        """A numba ``@njit`` function ``torque(t, q, L) -> (3,)``; with ``params`` (``(k,)``
+        shared or ``(N, k)`` per body) ``torque(t, q, L, p)``; with ``controls = k``
+        control inputs ``u`` last (compiled once per process)."""
+        takes = params is not None
+        return cls(TORQUE_USER, _block(0.0 if params is None else params),
+                   address=_callback(torque, controls, takes), function=torque,
+                   controls=controls, takes_params=takes)
+
+    def row(self, i: int = 0) -> np.ndarray:
+        """Body ``i``'s parameter row (the shared row when there is one)."""
+        return self.params[0 if self.params.shape[0] == 1 else i]
+
+    def __call__(self, t: float, q: np.ndarray, L: np.ndarray, u=None, i: int = 0
+                 ) -> np.ndarray:
+        """The user torque of body ``i`` at one state, called from Python (``u``: the
+        controls, zero when not given); raises what the torque raises."""
+        args = [t, q.copy(), L.copy()]
+        if self.takes_params:
+            args.append(self.row(i).copy())
         if self.controls:
-            u = np.zeros(self.controls) if u is None else np.array(u[:self.controls],
-                                                                   dtype=float)
-            return self.function(t, q.copy(), L.copy(), u)
-        return self.function(t, q.copy(), L.copy())
+            args.append(np.zeros(self.controls) if u is None
+                        else np.array(u[:self.controls], dtype=float))
+        return self.function(*args)
 
     @property
     def signature(self) -> str:
         """How the torque is called, e.g. ``"spin(t, q, L, u)"``, for messages."""
         name = getattr(self.function, "__name__", "torque")
-        return f"{name}(t, q, L{', u' if self.controls else ''})"
+        extra = (", p" if self.takes_params else "") + (", u" if self.controls else "")
+        return f"{name}(t, q, L{extra})"
 
 
 #: the torque model of a scene without torque (immutable, shared)
@@ -409,9 +449,15 @@ class TorqueBody(Scene):
         (scalar-first unit quaternion, ``(4,)`` array) and the body angular momentum
         (``(3,)`` array), returning the body-frame torque (3 numbers).
     potential
-        Optional ``potential(q) -> float`` for a conservative, orientation-only
-        torque; energy diagnostics then include it, and the scene counts as
-        conservative.
+        Optional ``potential(q) -> float`` (``potential(t, q, p)`` with ``params``) for a
+        conservative, orientation-only torque; energy diagnostics then include it, and
+        the scene counts as conservative.
+    params
+        Optional parameters of the torque: an array ``(k,)`` shared by every body, or
+        ``(N, k)`` one row per body (the inertia of each Monte Carlo case, say). With
+        ``params`` the torque is ``torque(t, q, L, p)`` (and ``torque(t, q, L, p, u)`` for
+        a :class:`ControlledBody`), ``p`` the body's row (a read-only view: do not write to
+        it), and a batch of rows makes the scene an ensemble of ``N`` bodies.
     orientation_only
         Promise that the torque does not depend on ``L`` (it may depend on ``t`` and
         ``q``). Then each kick (``q`` fixed, ``L += dt * torque``) is the exact flow of the
@@ -431,20 +477,32 @@ class TorqueBody(Scene):
     body: RigidBody
     torque: object
     potential_fn: object
+    params: np.ndarray | None
     orientation_only: bool
     free_flow: str
 
-    def __init__(self, body: RigidBody, torque, potential=None,
+    per_body: ClassVar[dict[str, int]] = {"params": 1}
+
+    def __init__(self, body: RigidBody, torque, potential=None, params=None,
                  orientation_only: bool = False, free_flow: str = "auto") -> None:
         _init_body(self, body, free_flow)
-        _check_user_torque(torque, self.controls)
+        if params is not None:
+            params = _user_params(params, body)
+        _check_user_torque(torque, self.controls, params)
         if potential is not None and not callable(potential):
-            raise TypeError("potential must be a callable potential(q) -> float or None")
+            sig = "potential(t, q, p)" if params is not None else "potential(q)"
+            raise TypeError(f"potential must be a callable {sig} -> float or None")
         if not isinstance(orientation_only, bool):
             raise TypeError("orientation_only must be True or False")
         object.__setattr__(self, "torque", torque)
         object.__setattr__(self, "potential_fn", potential)
+        object.__setattr__(self, "params", params)
         object.__setattr__(self, "orientation_only", orientation_only)
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        rows = () if self.params is None or self.params.ndim == 1 else self.params.shape[:1]
+        return np.broadcast_shapes(self.body.shape, rows)
 
     @property
     def capabilities(self) -> Capabilities:
@@ -455,17 +513,34 @@ class TorqueBody(Scene):
         conservative = self.potential_fn is not None and self.orientation_only
         return Capabilities(torque=frozenset(deps), conservative=conservative)
 
-    def potential(self, q: np.ndarray) -> np.ndarray:
+    def potential(self, q: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """The user's potential at orientations ``q`` ``(..., 4)`` and time ``t`` (zeros
+        without one). With per-body ``params`` ``(N, k)``, ``q`` has the body axis first
+        (``(N, ..., 4)``) and body ``i``'s row is passed."""
         q = np.asarray(q, dtype=float)
         if self.potential_fn is None:
             return np.zeros(q.shape[:-1])
-        flat = q.reshape(-1, 4)
-        vals = np.fromiter((float(self.potential_fn(row)) for row in flat), float, len(flat))
-        return vals.reshape(q.shape[:-1])
+        if self.params is None:
+            flat = q.reshape(-1, 4)
+            vals = np.fromiter((float(self.potential_fn(row)) for row in flat), float,
+                               len(flat))
+            return vals.reshape(q.shape[:-1])
+        t = float(t)
+        if self.params.ndim == 1:
+            flat = q.reshape(-1, 4)
+            p = self.params
+            vals = np.fromiter((float(self.potential_fn(t, row, p)) for row in flat), float,
+                               len(flat))
+            return vals.reshape(q.shape[:-1])
+        out = np.empty(q.shape[:-1])
+        for i in range(q.shape[0]):
+            out[i] = self.__class__.potential(self.take(i), q[i], t)
+        return out
 
     def torque_model(self) -> TorqueModel:
         return _memo(self, "torque_model", lambda: TorqueModel.user(self.torque,
-                                                                     self.controls))
+                                                                     self.controls,
+                                                                     self.params))
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -494,10 +569,10 @@ class ControlledBody(TorqueBody):
         check bounds, so a torque that reads beyond ``u[controls - 1]`` reads memory
         that is not ``u`` (compile the torque with ``@njit(boundscheck=True)`` while
         developing it to catch that).
-    potential, orientation_only, free_flow
-        As for :class:`TorqueBody`. ``orientation_only=True`` promises that the torque
-        does not depend on ``L`` (``u`` and ``t`` are allowed): kicks are then explicit
-        and exact.
+    potential, params, orientation_only, free_flow
+        As for :class:`TorqueBody` (with ``params``, ``torque(t, q, L, p, u)``).
+        ``orientation_only=True`` promises that the torque does not depend on ``L`` (``u``
+        and ``t`` are allowed): kicks are then explicit and exact.
 
     Examples
     --------
@@ -515,7 +590,7 @@ class ControlledBody(TorqueBody):
 
     controls: int
 
-    def __init__(self, body: RigidBody, torque, controls: int, potential=None,
+    def __init__(self, body: RigidBody, torque, controls: int, potential=None, params=None,
                  orientation_only: bool = False, free_flow: str = "auto") -> None:
         from liebody._kernels.stages import N_CONTROLS
 
@@ -525,8 +600,122 @@ class ControlledBody(TorqueBody):
         if not 1 <= controls <= N_CONTROLS:
             raise ValueError(f"controls must be 1 to {N_CONTROLS}, got {controls}")
         object.__setattr__(self, "controls", int(controls))
-        super().__init__(body, torque, potential=potential,
+        super().__init__(body, torque, potential=potential, params=params,
                          orientation_only=orientation_only, free_flow=free_flow)
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class GravityGradient(Scene):
+    """A rigid body in the gravity field of point masses on orbits: the gravity-gradient
+    torque.
+
+    Each source ``k`` is a pair ``(GM_k, orbit_k)``: its gravitational parameter and a
+    :mod:`liebody.orbits` orbit giving its position ``r_k(t)`` seen from the body's centre
+    of mass (inertial frame). With ``r_k`` in the body frame (``R(q)^T r_k``) the torque
+    is ``tau = sum_k 3 GM_k / r_k^5 (r_k x I r_k)`` and the potential
+    ``V = sum_k 3 GM_k / (2 r_k^5) r_k^T I r_k`` (MacCullagh's formula; the terms free of
+    the orientation are left out). The Earth below a satellite, the Sun and the Moon on
+    the Earth: any number of sources.
+
+    Parameters
+    ----------
+    body
+        The body (its inertia about the centre of mass); a :meth:`RigidBody.batch` makes an
+        ensemble with per-body inertia.
+    sources
+        A sequence of ``(GM, orbit)`` pairs (``GM > 0``).
+    free_flow
+        As for :class:`HeavyTop`.
+
+    The torque depends on the orientation and the time only, so a kick with ``q`` fixed
+    is its exact flow: the splittings and their compositions are symplectic (for the
+    time-dependent Hamiltonian) and of their declared order, ``rattle`` likewise. The
+    energy is not conserved (the sources move); for one source on a circular orbit the
+    Jacobi integral, the energy in the frame turning with the orbit, is
+    (:meth:`jacobi_integral`). ``Trajectory.diagnostics``' energy error is NaN.
+    """
+
+    body: RigidBody
+    sources: tuple
+    free_flow: str
+
+    def __init__(self, body: RigidBody, sources, free_flow: str = "auto") -> None:
+        from liebody.orbits import Orbit
+
+        _init_body(self, body, free_flow)
+        if isinstance(sources, tuple) and len(sources) == 2 and isinstance(sources[1], Orbit):
+            sources = [sources]  # one (GM, orbit) pair
+        try:
+            pairs = list(sources)
+        except TypeError:
+            raise TypeError("sources must be a sequence of (GM, orbit) pairs") from None
+        if not pairs:
+            raise ValueError("sources must hold at least one (GM, orbit) pair")
+        out = []
+        for k, pair in enumerate(pairs):
+            if not (isinstance(pair, tuple | list) and len(pair) == 2):
+                raise TypeError(f"sources[{k}] must be a (GM, orbit) pair, got {pair!r}")
+            GM, orbit = pair
+            GM = as_positive_float(f"sources[{k}] GM", GM)
+            if not isinstance(orbit, Orbit):
+                raise TypeError(f"sources[{k}]: the orbit must be a liebody.orbits orbit "
+                                f"(Circular, Kepler), got {type(orbit).__name__}")
+            out.append((GM, orbit))
+        object.__setattr__(self, "sources", tuple(out))
+
+    @property
+    def capabilities(self) -> Capabilities:
+        return _GRAVITY_GRADIENT
+
+    def _blocks(self) -> np.ndarray:
+        moments = np.atleast_2d(np.asarray(self.body.moments, dtype=float))
+        tail = np.concatenate([[GM, *orbit.row] for GM, orbit in self.sources])
+        head = np.column_stack([moments, np.full(len(moments), float(len(self.sources)))])
+        return np.hstack([head, np.broadcast_to(tail, (len(moments), tail.size))])
+
+    def torque_model(self) -> TorqueModel:
+        return _memo(self, "torque_model", lambda: TorqueModel.gravity_gradient(
+            self._blocks()))
+
+    def potential(self, q: np.ndarray, t=0.0) -> np.ndarray:
+        """The potential at orientations ``q`` ``(..., 4)`` and times ``t`` (broadcast
+        against ``q``'s leading axes); a batch of bodies takes the body axis first."""
+        from liebody._models.dispatch import potentials
+
+        q = as_float_array("q", q, last_dim=4)
+        t = np.broadcast_to(as_float_array("t", t), q.shape[:-1])
+        model = self.torque_model()
+        rows = model.params
+        flat_q = np.ascontiguousarray(q.reshape(-1, 4))
+        mp = rows if rows.shape[0] == 1 else np.ascontiguousarray(np.broadcast_to(
+            _per_body(rows, q), q.shape[:-1] + rows.shape[-1:]).reshape(-1, rows.shape[-1]))
+        out = np.empty(flat_q.shape[0])
+        potentials(model.code, mp, np.ascontiguousarray(t.reshape(-1)), flat_q, out)
+        return out.reshape(q.shape[:-1])
+
+    def jacobi_integral(self, traj) -> np.ndarray:
+        """The Jacobi integral ``J = T + V(t, q) - n k . L_space`` at every sample of
+        ``traj`` (one source on a :class:`~liebody.orbits.Circular` orbit of mean motion
+        ``n`` and plane normal ``k``): the energy in the frame that turns with the orbit,
+        conserved by the exact flow (``(..., n_samples)``)."""
+        from liebody import quaternion
+        from liebody.orbits import Circular
+
+        if len(self.sources) != 1 or not isinstance(self.sources[0][1], Circular):
+            raise ValueError("the Jacobi integral exists for one source on a Circular orbit; "
+                             f"this scene has {len(self.sources)} source(s): "
+                             f"{[type(o).__name__ for _, o in self.sources]}")
+        orbit = self.sources[0][1]
+        q, L, t = traj.q, traj.L, traj.t
+        moments = _per_body(np.asarray(self.body.moments, dtype=float), L)
+        T = 0.5 * np.sum(L * L / moments, axis=-1)
+        V = self.potential(q, np.broadcast_to(t, q.shape[:-1]))
+        Ls = quaternion.rotate(quaternion.normalize(q), L)
+        return T + V - orbit.n * (Ls @ orbit.normal)
+
+    def __repr__(self) -> str:
+        src = ", ".join(f"({GM:g}, {o!r})" for GM, o in self.sources)
+        return f"{type(self).__name__}(body={self.body!r}, sources=[{src}])"
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -589,15 +778,33 @@ class DampedBody(Scene):
         return self.eps
 
 
-def _check_user_torque(torque, controls: int) -> None:
+def _user_params(params, body: RigidBody) -> np.ndarray:
+    """A user torque's parameters: ``(k,)`` shared by every body or ``(N, k)`` one row per
+    body, finite float64 (read-only copy)."""
+    p = np.array(as_float_array("params", params), dtype=np.float64)
+    if p.ndim not in (1, 2) or p.shape[-1] == 0:
+        raise ValueError(f"params must be an array (k,) shared by every body or (N, k) one "
+                         f"row per body, k >= 1, got shape {p.shape}")
+    if p.ndim == 2:
+        n = body.shape[0] if body.shape else None
+        if (n is not None and p.shape[0] not in (n, 1)) or p.shape[0] == 0:
+            raise ValueError(f"params of shape {p.shape} give {p.shape[0]} rows, but the body "
+                             f"describes {n} bodies: give one row per body or a (k,) array")
+    p.flags.writeable = False
+    return p
+
+
+def _check_user_torque(torque, controls: int, params=None) -> None:
     """A user torque is an ``@njit`` function giving 3 numbers on a test call."""
-    args = "t, q, L, u" if controls else "t, q, L"
+    args = "t, q, L" + (", p" if params is not None else "") + (", u" if controls else "")
     from numba.core.config import DISABLE_JIT  # @njit gives plain functions then
 
     if not (hasattr(torque, "py_func") or (DISABLE_JIT and callable(torque))):
         raise TypeError(f"torque must be a numba @njit function torque({args}) returning "
                         f"the body-frame torque, got {type(torque).__name__}")
     test = (0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
+    if params is not None:
+        test += (np.array(params.reshape(-1, params.shape[-1])[0]),)
     if controls:
         test += (np.zeros(controls),)
     try:
@@ -633,13 +840,13 @@ def _per_body(param: np.ndarray, values: np.ndarray) -> np.ndarray:
 _CALLBACKS: dict = {}
 
 
-def _callback(torque, controls: int = 0) -> int:
+def _callback(torque, controls: int = 0, params: bool = False) -> int:
     """The address of the C callback of a user torque, compiled once per process."""
-    key = (id(torque), controls)
+    key = (id(torque), controls, params)
     entry = _CALLBACKS.get(key)
     if entry is None or entry[0] is not torque:
-        from liebody._kernels.torque import adapt_user_torque
+        from liebody._models.user_torque import adapt_user_torque
 
-        entry = (torque, adapt_user_torque(torque, controls))
+        entry = (torque, adapt_user_torque(torque, controls, params))
         _CALLBACKS[key] = entry
     return entry[1]

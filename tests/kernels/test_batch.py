@@ -109,7 +109,7 @@ class Run:
             runner(p.kinds, p.axes, p.coefs, p.clock, p.params, merge, self.h, 0.0,
                    float(done), k, self.save_every, done + k == self.n_steps, self.state,
                    self.ctl, self.q, self.m, self.saved, self.done, self.status, 0,
-                   self.dref, self.dmax)
+                   p.model, self.dref, self.dmax)
             done += k
         return self
 
@@ -356,8 +356,7 @@ def test_a_dmv_failure_later_in_the_run_matches_the_scalar_driver():
     q0, L0 = bodies(n, [0.0, 0.0, 5.0], seed=3, q_spread=0.05)
     q0 = quaternion.multiply(quaternion.exp([0.6, 0.0, 0.0]), q0)
     plan = one_plan(top_scene(), "rattle", L0, 0.05)
-    plan.params = plan.params.copy()
-    plan.params[:, :, S.P_C1:S.P_C3 + 1] *= 30.0
+    plan.model = plan.model * 30.0  # the weight arm: the model's parameter block
     run = Run(plan, q0, L0, 0.05, steps, 3)
     a = run.copy().go(simd(plan), [7, 53])
     b = run.copy().go(scalar(plan), [7, 53])
@@ -373,8 +372,10 @@ def test_a_dmv_failure_later_in_the_run_matches_the_scalar_driver():
 def test_a_torque_that_fails_is_reported_as_the_scalar_driver_does():
     """A gravity constant that is not finite: STATUS_TORQUE at the first kick."""
     run, _ = _case_run(CASES[6], 6, 5, 1)
-    run.plan.params = run.plan.params.copy()
-    run.plan.params[1, :, S.P_C1] = math.inf
+    model = np.repeat(run.plan.model, 6, axis=0) if len(run.plan.model) == 1 else (
+        run.plan.model.copy())
+    model[1, 0] = math.inf  # body 1's weight arm
+    run.plan.model = model
     a = run.copy().go(simd(run.plan))
     b = run.copy().go(scalar(run.plan))
     assert_same_records(a, b)
@@ -574,7 +575,7 @@ def test_norms_over_1e8_steps(case):
         p = run.plan
         runner(p.kinds, p.axes, p.coefs, p.clock, p.params, False, h, 0.0, float(done), k,
                10**8, done + k == 10**8, run.state, run.ctl, run.q, run.m, run.saved,
-               run.done, run.status, 0, run.dref, run.dmax)
+               run.done, run.status, 0, p.model, run.dref, run.dmax)
         done += k
         if done == 10**6:
             early = run.dmax.copy()

@@ -70,7 +70,7 @@ def test_heavy_top_potential_and_torque_are_consistent():
     R = Q.to_matrix(q)
     assert abs(top.potential(q) - top.mass * top.g * (R @ top.cm)[2]) < 1e-13
     # torque . e = -dV/d(eps) for q -> q exp(eps e)
-    from liebody._kernels.torque import gravity_torque
+    from liebody._models.uniform_gravity import gravity_torque
 
     tau = np.array(gravity_torque(*q, *top.weight_arm))
     for e in np.eye(3):

@@ -187,3 +187,11 @@ def jit(*args, tag: str | None = None, **extra):
     if args:
         return _compile(_name(args[0], tag), options)
     return lambda fn: _compile(_name(fn, tag), options)
+
+
+def overload_options() -> dict:
+    """The ``jit_options`` of a numba ``@overload`` implementation: :data:`OPTIONS`
+    without the disk cache. An overload is compiled into each kernel that calls it, and
+    that kernel is cached (or not) by :func:`jit`; asking numba to cache the overload
+    itself bypassed the no-cache fallback and failed a read-only install."""
+    return {k: v for k, v in OPTIONS.items() if k != "cache"}

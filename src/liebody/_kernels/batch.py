@@ -132,7 +132,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic, overload
 
-from liebody._kernels._jit import jit
+from liebody._kernels._jit import jit, overload_options
 from liebody._kernels.flows import DMV_MAX_FIXED_POINT, dmv_step
 from liebody._kernels.stages import (
     AXIS,
@@ -146,9 +146,6 @@ from liebody._kernels.stages import (
     F_SPLITTING,
     KICK,
     KINDS,
-    P_C1,
-    P_C2,
-    P_C3,
     P_I1,
     P_I2,
     P_I3,
@@ -161,7 +158,6 @@ from liebody._kernels.stages import (
     STATUS_OK,
     STATUS_TORQUE,
     TORQUE_GRAVITY,
-    TORQUE_USER,
     family_tag,
 )
 
@@ -231,9 +227,12 @@ SIMD_MEMBERS = _members()
 def simd_supports(plan, torque_code) -> bool:
     """Whether ``plan`` (a :class:`liebody._plan.Plan`) can run in a :data:`SIMD_RUNNERS`
     driver: its family is one of :data:`SIMD_FAMILIES`, every stage kind is one that
-    family's SIMD driver runs, and every kick is uniform gravity (no user torque)."""
+    family's SIMD driver runs, and every kick is uniform gravity (the one model with a
+    vectorised kick here)."""
     family = int(plan.family)
-    if family not in SIMD_FAMILIES or int(torque_code) == TORQUE_USER:
+    if family not in SIMD_FAMILIES:
+        return False
+    if any(int(k) == KICK for k in plan.kinds) and int(torque_code) != TORQUE_GRAVITY:
         return False
     kinds = [int(k) for k in plan.kinds]
     if not kinds or any(k not in SIMD_FAMILIES[family] for k in kinds):
@@ -276,7 +275,7 @@ def _llvm_fma(typingctx, a, b, c):
     return sig, codegen
 
 
-@overload(fma, jit_options={"cache": True})
+@overload(fma, jit_options=overload_options())
 def _fma_overload(a, b, c):
     return lambda a, b, c: _llvm_fma(a, b, c)
 
@@ -810,12 +809,15 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
 
 # ------------------------------------------------------------------ the drivers
 @jit(inline="always")
-def _gather(kinds, params, idx, nb, par):
-    """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)``."""
+def _gather(kinds, params, mpar, idx, nb, par):
+    """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a gravity
+    kick's from the model's parameter blocks ``mpar``, shared or per body)."""
+    shared = mpar.shape[0] == 1
     for j in range(kinds.shape[0]):
         k = kinds[j]
         for b in range(nb):
             row = params[idx[b], j]
+            mrow = mpar[0] if shared else mpar[idx[b]]
             if k == DMV:
                 I1, I2, I3 = row[P_I1], row[P_I2], row[P_I3]
                 par[j, 0, b], par[j, 1, b], par[j, 2, b] = I1, I2, I3
@@ -823,15 +825,15 @@ def _gather(kinds, params, idx, nb, par):
                 par[j, 4, b] = (I3 - I1) / I2
                 par[j, 5, b] = (I1 - I2) / I3
             elif k == KICK:
-                par[j, 0, b], par[j, 1, b], par[j, 2, b] = row[P_C1], row[P_C2], row[P_C3]
+                par[j, 0, b], par[j, 1, b], par[j, 2, b] = mrow[0], mrow[1], mrow[2]
             else:
                 par[j, 0, b] = row[P_RATE]
 
 
 @jit
 def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps, save_every,
-               final, state, ctl, q_out, m_out, saved, done, status, dref, dmax, idx, nb,
-               buf, par, fast, alive):
+               final, state, ctl, q_out, m_out, saved, done, status, mpar, dref, dmax, idx,
+               nb, buf, par, fast, alive):
     """Run ``n_steps`` steps of the ``nb`` bodies ``idx[:nb]`` (same ``ctl``).
 
     ``family`` and ``diag`` are run-time values here (the drivers pass them as plain
@@ -850,7 +852,12 @@ def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps,
                 buf[(R_D + r) * BLOCK + b] = dmax[i, r]
             for r in range(10):
                 buf[(R_DREF + r) * BLOCK + b] = dref[i, r]
-    _gather(kinds, params, idx, nb, par)
+            # the potential's constants: uniform gravity's weight arm, the one model here
+            gravity = int(dref[i, 3]) == TORQUE_GRAVITY
+            mrow = mpar[0] if mpar.shape[0] == 1 else mpar[i]
+            for r in range(3):
+                buf[(R_DREF + 3 + r) * BLOCK + b] = mrow[r] if gravity else 0.0
+    _gather(kinds, params, mpar, idx, nb, par)
     until_save = ctl[idx[0], 0]
     pending = ctl[idx[0], 1] != 0
     n_saved = 0
@@ -956,7 +963,8 @@ def _simd_runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
+            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
+            dmax):
         ns = kinds.shape[0]
         n = state.shape[0]
         bad = ns == 0
@@ -999,7 +1007,8 @@ def _simd_runner(family: int, diag: bool = False):
             if nb > 0:  # family, diag as plain values: one compilation for all drivers
                 _run_block(np.int64(family), np.bool_(diag), kinds, axes, coefs, params,
                            merge_ends, h, n_steps, save_every, final, state, ctl, q_out, m_out,
-                           saved, done, status, dref, dmax, idx, nb, buf, par, fast, alive)
+                           saved, done, status, mpar, dref, dmax, idx, nb, buf, par, fast,
+                           alive)
         return 0
 
     return run

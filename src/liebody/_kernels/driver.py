@@ -87,6 +87,7 @@ from liebody._kernels.stages import (
     family_tag,
 )
 from liebody._kernels.torque import damping_flow, torque_value
+from liebody._models import dispatch
 
 #: iterations allowed to the implicit (adjoint) kick: fixed point, then Newton
 KICK_FIXED_POINT = 50
@@ -99,23 +100,23 @@ KICK_NEWTON = 30
 
 
 @jit
-def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr):
+def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
-    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
 
 
 @jit
-def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
+def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)``."""
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     return w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3, STATUS_OK
 
 
 @jit
-def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
+def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """KICK (exact flow of an orientation-only torque) or KICK_IMPLICIT.
 
     The implicit kick solves ``k = m + tau N(t, q, k)``: the adjoint of the explicit one,
@@ -124,7 +125,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     ``tau |dN/dm| < 1``), then Newton with a finite-difference Jacobian (stiff torques
     such as strong damping), each to round-off.
     """
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     e1, e2, e3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3  # the explicit kick
@@ -133,7 +134,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     k1, k2, k3 = e1, e2, e3
     scale = abs(m1) + abs(m2) + abs(m3)
     for _ in range(KICK_FIXED_POINT):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
@@ -146,7 +147,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     # Newton on G(k) = k - m - tau N(k), from the explicit kick
     k1, k2, k3 = e1, e2, e3
     for _ in range(KICK_NEWTON):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         g1, g2, g3 = k1 - m1 - tau * n1, k2 - m2 - tau * n2, k3 - m3 - tau * n3
@@ -155,9 +156,9 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
             return w, x, y, z, k1, k2, k3, STATUS_OK
         # J = 1 - tau dN/dk, by forward differences
         e = 1.5e-8 * size
-        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr)
-        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr)
-        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr)
+        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr, mp)
+        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr, mp)
+        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr, mp)
         if not (ok1 and ok2 and ok3):
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         f = tau / e
@@ -200,17 +201,17 @@ def _damp(p, tau, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
+def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """The splittings' stages other than rotations: kicks and dissipation."""
     if kind == KICK or kind == KICK_IMPLICIT:
-        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
     if kind == DAMP:
         return _damp(p, tau, w, x, y, z, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
 @jit
-def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
+def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """Any stage kind (the generic family, for plans that mix kinds of several families)."""
     if kind == AXIS:
         r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
@@ -223,27 +224,26 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr):
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EULER:
-        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
     elif kind == RK4:
-        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
     elif kind == LIE_EULER:
-        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
     elif kind == RKMK4:
-        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr)
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
     else:
-        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 # ------------------------------------------------------------------ the loop
 @jit
-def _diagnose(w, x, y, z, m1, m2, m3, dref, dmax):
-    """Update the running diagnostics ``dmax`` with the state (see :func:`_runner`)."""
+def _diagnose(t, w, x, y, z, m1, m2, m3, mp, dref, dmax):
+    """Update the running diagnostics ``dmax`` with the state at time ``t`` (see
+    :func:`_runner`)."""
     n2 = w * w + x * x + y * y + z * z
     T = 0.5 * (m1 * m1 * dref[0] + m2 * m2 * dref[1] + m3 * m3 * dref[2])
-    # uniform gravity: V = c . Gamma with Gamma = R(q/|q|)^T e_z = (third row of R(q)) / |q|^2
-    V = (dref[3] * 2.0 * (x * z - w * y) + dref[4] * 2.0 * (y * z + w * x)
-         + dref[5] * (w * w - x * x - y * y + z * z)) / n2
+    V = dispatch.potential(int(dref[3]), mp, t, w, x, y, z)
     e = abs(T + V - dref[6]) * dref[7]
     qe = abs(math.sqrt(n2) - 1.0)
     le = abs(math.sqrt(m1 * m1 + m2 * m2 + m3 * m3) - dref[8]) * dref[9]
@@ -269,7 +269,7 @@ def _runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, torque_addr, dref, dmax):
+            final, state, ctl, q_out, m_out, torque_addr, mp, dref, dmax):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
         The run may be cut into slices (calls) of any length without changing a bit of
@@ -282,7 +282,8 @@ def _runner(family: int, diag: bool = False):
         step of the run, and the last step of the last slice (``final``), is written to
         consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
         ``torque_addr`` is the address of the user torque callback
-        (``torque.adapt_user_torque``), 0 for none.
+        (``user_torque.adapt_user_torque``), 0 for none, and ``mp`` the torque model's
+        parameter block (``liebody._models``; a 1-d array).
 
         Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed
         implicit solve or a torque that fails, the loop stops and ``state`` holds the
@@ -292,9 +293,9 @@ def _runner(family: int, diag: bool = False):
         Running diagnostics (``diag``, a compile-time constant): after every step,
         ``dmax`` (in place) keeps the largest relative energy error ``|E - E0| / scale``,
         ``| |q| - 1 |`` and relative ``| |L| - |L0| |`` seen, with ``dref`` = ``(1/I1,
-        1/I2, 1/I3, c1, c2, c3, E0, 1/scale, |L0|, 1/|L0|)`` (``c = M g cm``: the energy
-        includes the potential of uniform gravity). Run with ``merge_ends`` false, so
-        that every step ends on a full step's state.
+        1/I2, 1/I3, code, 0, 0, E0, 1/scale, |L0|, 1/|L0|)`` (``code``: the torque
+        model whose potential the energy includes, evaluated at the step's end time).
+        Run with ``merge_ends`` false, so that every step ends on a full step's state.
         """
         ns = kinds.shape[0]
         for j in range(ns):  # every kind must be one the family runs
@@ -330,10 +331,10 @@ def _runner(family: int, diag: bool = False):
                 elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
                     if family == F_KICKED and kind == KICK:
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
-                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
                     elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
                         w, x, y, z, m1, m2, m3, status = _kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
                     elif family == F_SPLITTING and kind == DAMP:
                         w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
                                                                m1, m2, m3)
@@ -356,29 +357,29 @@ def _runner(family: int, diag: bool = False):
                                                               m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
                 elif family == F_EXACT:
                     if kind == EXACT:
                         w, x, y, z, m1, m2, m3, status = _exact(params[j], tau, w, x, y, z,
                                                                 m1, m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick_or_damp(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
                 elif family == F_EULER:
-                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RK4:
-                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_LIE_EULER:
-                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RKMK4:
-                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr)
+                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 else:
                     w, x, y, z, m1, m2, m3, status = _any_stage(
-                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr)
+                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
                 if status != STATUS_OK:
                     break
                 t += clock[j] * h
@@ -392,7 +393,8 @@ def _runner(family: int, diag: bool = False):
                 state[4], state[5], state[6] = g1, g2, g3
                 return step, n_saved, status
             if diag:
-                _diagnose(w, x, y, z, m1, m2, m3, dref, dmax)
+                _diagnose(t0 + (step0 + step + 1) * h, w, x, y, z, m1, m2, m3, mp, dref,
+                          dmax)
             if save_now:
                 until_save = save_every
                 q_out[n_saved, 0], q_out[n_saved, 1] = w, x
@@ -411,7 +413,8 @@ def _runner(family: int, diag: bool = False):
 def _batch_runner(family: int, diag: bool = False):
     """The driver of one family for many bodies: the one-body loop run for each body.
 
-    ``params`` ``(N, s, P)``, ``state`` ``(N, 7)``, ``ctl`` ``(N, 2)``, ``q_out``
+    ``params`` ``(N, s, P)``, ``mpar`` the model's parameter blocks ``(1, k)`` (shared)
+    or ``(N, k)`` (one per body), ``state`` ``(N, 7)``, ``ctl`` ``(N, 2)``, ``q_out``
     ``(N, S, 4)``, ``m_out`` ``(N, S, 3)``; ``saved``, ``done`` and ``status`` ``(N,)``
     (int64, in place) count each body's saved samples and completed steps and hold its
     status. A body whose status is not OK is skipped (it failed in an earlier slice):
@@ -427,13 +430,15 @@ def _batch_runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, dref, dmax):
+            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
+            dmax):
+        shared = mpar.shape[0] == 1
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
             a = (kinds, axes, coefs, clock, params[i], merge_ends, h, t0, step0, n_steps,
                  save_every, final, state[i], ctl[i], q_out[i, saved[i]:], m_out[i, saved[i]:],
-                 torque_addr, dref[i], dmax[i])
+                 torque_addr, mpar[0] if shared else mpar[i], dref[i], dmax[i])
             if diag:
                 if family == 0:
                     d, s, st = _D0(*a)

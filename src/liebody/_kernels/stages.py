@@ -15,8 +15,9 @@ meaning for every kind (a kind reads the columns it needs and ignores the others
 ``P_RATE``                  rate of a rotation: the flow of
                             ``rate * m_k^2 / 2`` (axis) or ``rate * |m|^2 / 2``
                             (sphere)
-``P_TORQUE``                torque model code (``TORQUE_*`` below)
-``P_C1, P_C2, P_C3``        torque constants (uniform gravity: ``M g cm``)
+``P_TORQUE``                torque model code (``TORQUE_*`` below); the model's
+                            parameters are its parameter block, passed to the
+                            drivers apart from the stages (``liebody._models``)
 ``P_EPS``                   dissipation strength ``eps``
 ``P_U0 .. P_U0 + 5``        control inputs ``u`` passed to a user torque, held
                             constant over each step (zero-order hold); a
@@ -52,9 +53,8 @@ RKMK4 = 11  # Runge-Kutta-Munthe-Kaas 4 (baseline)
 P_I1, P_I2, P_I3 = 0, 1, 2
 P_RATE = 3
 P_TORQUE = 4
-P_C1, P_C2, P_C3 = 5, 6, 7
-P_EPS = 8
-P_U0 = 9
+P_EPS = 5
+P_U0 = 6
 #: the most control inputs a user torque takes
 N_CONTROLS = 6
 #: width of a parameter row
@@ -62,8 +62,9 @@ N_PARAMS = P_U0 + N_CONTROLS
 
 # --------------------------------------------------------------------------- torque codes
 TORQUE_NONE = 0
-TORQUE_GRAVITY = 1  # Gamma x c with Gamma = R(q)^T e_z, c = M g cm (uniform gravity)
-TORQUE_USER = 2  # the user's callback (the driver's torque_fn argument)
+TORQUE_GRAVITY = 1  # uniform gravity (liebody._models.uniform_gravity)
+TORQUE_USER = 2  # the user's callback (liebody._models.user_torque)
+TORQUE_GRAVITY_GRADIENT = 3  # point masses on orbits (liebody._models.gravity_gradient)
 
 # ------------------------------------------------------------------------- driver status
 STATUS_OK = 0
@@ -84,7 +85,7 @@ class Kind(NamedTuple):
 
 
 _MOMENTS = ("I1", "I2", "I3")
-_TORQUE = ("torque", "c1", "c2", "c3")
+_TORQUE = ("torque",)
 _CONTROLS = tuple(f"u{i}" for i in range(N_CONTROLS))
 
 #: every stage kind, by code
@@ -105,7 +106,7 @@ KINDS: dict[int, Kind] = {
 
 #: parameter name -> slot
 SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
-                         "torque": P_TORQUE, "c1": P_C1, "c2": P_C2, "c3": P_C3, "eps": P_EPS,
+                         "torque": P_TORQUE, "eps": P_EPS,
                          **{f"u{i}": P_U0 + i for i in range(N_CONTROLS)}}
 
 # ------------------------------------------------------------------------------ families

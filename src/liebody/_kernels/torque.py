@@ -4,157 +4,29 @@ A *kick* is the exact flow of the torque alone: ``q`` fixed, ``m' = tau(t, q)``,
 ``m <- m + dt tau(t, q)``; it is exact whenever the torque depends on the
 orientation (and time) only. Kicks sandwich a free flow in the splittings of
 torqued scenes: kick(h/2) – free flow(h) – kick(h/2), a Strang splitting
-(McLachlan 1993; Dullweber, Leimkuhler & McLachlan 1997). Dissipation sandwiches it
-the same way with :func:`damping_flow`, the closed-form step of the double-bracket
+(McLachlan 1993; Dullweber, Leimkuhler & McLachlan 1997). The torques themselves are
+the physics models' (:mod:`liebody._models`). Dissipation sandwiches the free flow the
+same way with :func:`damping_flow`, the closed-form step of the double-bracket
 dissipation (``m`` exact, ``q`` to ``O(dt^3)``; stable and energy-decreasing for any
 ``eps dt``).
-
-User torques reach the kernels as a C callback of the fixed signature
-:data:`TORQUE_SIG` ``(t, w, x, y, z, m1, m2, m3, u0, ..., u5) -> (tau1, tau2, tau3)``
-(body frame; ``u`` the control inputs, held constant over a step), passed to the
-drivers as its address, a plain integer (0: no user torque), and called through
-:func:`call_torque`. So the drivers are compiled once and cached whatever the user's
-function is, free bodies and user torques share one compiled driver, and a call passes
-an integer instead of a first-class function object (which numba would type and unbox,
-at several microseconds, on every call).
 """
 
 from __future__ import annotations
 
 import math
 
-from numba import cfunc, config, types
-
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import qmul
-from liebody._kernels.stages import (
-    N_CONTROLS,
-    P_C1,
-    P_C2,
-    P_C3,
-    P_TORQUE,
-    P_U0,
-    TORQUE_GRAVITY,
-    TORQUE_USER,
-)
-
-TORQUE_SIG = types.UniTuple(types.float64, 3)(*([types.float64] * (8 + N_CONTROLS)))
-
-
-#: address -> adapter, for the uncompiled kernels (NUMBA_DISABLE_JIT=1) and to keep
-#: every adapter alive for as long as the drivers may call its address
-_ADAPTERS: dict = {}
-
-
-def adapt_user_torque(user, controls: int = 0):
-    """Wrap a user ``@njit`` torque as a :data:`TORQUE_SIG` callback; returns its address.
-
-    ``controls = 0``: ``torque(t, q, L) -> (3,)``; ``controls = k`` (1 to
-    ``N_CONTROLS``): ``torque(t, q, L, u) -> (3,)`` with ``u`` the first ``k`` control
-    inputs. The wrapper builds the ``q``, ``L`` (and ``u``) arrays for each call (small
-    allocations per torque evaluation, the price of the friendly signature). A
-    callback cannot raise, so a torque that raises, or returns anything but three
-    numbers, yields NaN: the driver stops at that step (``STATUS_TORQUE``) and the
-    Python side calls the torque again to raise its error. The adapter is kept for the
-    life of the process (its address is what the drivers call).
-    """
-    import math
-
-    import numpy as np
-
-    if not 0 <= controls <= N_CONTROLS:
-        raise ValueError(f"controls must be 0 to {N_CONTROLS}, got {controls}")
-
-    def body(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5):
-        q = np.empty(4)
-        q[0], q[1], q[2], q[3] = w, x, y, z
-        L = np.empty(3)
-        L[0], L[1], L[2] = m1, m2, m3
-        try:
-            if controls:
-                u = np.empty(controls)
-                every = (u0, u1, u2, u3, u4, u5)
-                for i in range(controls):
-                    u[i] = every[i]
-                tau = np.asarray(user(t, q, L, u), dtype=np.float64)
-            else:
-                tau = np.asarray(user(t, q, L), dtype=np.float64)
-        except Exception:
-            return math.nan, math.nan, math.nan
-        if tau.ndim != 1 or tau.shape[0] != 3:
-            return math.nan, math.nan, math.nan
-        return tau[0], tau[1], tau[2]
-
-    if config.DISABLE_JIT:  # the uncompiled kernels call the Python function by its id
-        _ADAPTERS[id(body)] = body
-        return id(body)
-    adapter = cfunc(TORQUE_SIG)(body)
-    _ADAPTERS[adapter.address] = adapter
-    return adapter.address
-
-
-def _call_torque_py(addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5):
-    """:func:`call_torque` for the uncompiled kernels: the adapter's Python function."""
-    return _ADAPTERS[addr](t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5)
-
-
-def _call_torque_intrinsic():
-    from llvmlite import ir
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def call_torque(typingctx, addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5):
-        """Call the :data:`TORQUE_SIG` callback at the integer address ``addr``."""
-        sig = TORQUE_SIG.return_type(types.intp, *TORQUE_SIG.args)
-
-        def codegen(context, builder, signature, args):
-            fnty = ir.FunctionType(context.get_value_type(TORQUE_SIG.return_type),
-                                   [context.get_value_type(a) for a in TORQUE_SIG.args])
-            fptr = builder.inttoptr(args[0], fnty.as_pointer())
-            return builder.call(fptr, args[1:])
-
-        return sig, codegen
-
-    return call_torque
-
-
-#: ``call_torque(addr, t, w, x, y, z, m1, m2, m3, u0, ..., u5)``: call the user torque
-#: callback whose address is ``addr`` (an adapter made by :func:`adapt_user_torque`)
-call_torque = _call_torque_py if config.DISABLE_JIT else _call_torque_intrinsic()
+from liebody._kernels.stages import P_TORQUE
+from liebody._models import dispatch
 
 
 @jit
-def vertical_in_body(w, x, y, z):
-    """``Gamma = R(q)^T e_z``: the space vertical in body coordinates (third row of R)."""
-    return (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z)
-
-
-@jit
-def gravity_torque(w, x, y, z, c1, c2, c3):
-    """Body torque ``Gamma x c`` of the potential ``V = c . Gamma`` (``c = M g cm``).
-
-    ``V = M g (R(q) cm) . e_z``; under a body rotation by ``eps`` it changes by
-    ``-eps . (Gamma x c)``, so the torque is ``Gamma x c``.
-    """
-    g1, g2, g3 = vertical_in_body(w, x, y, z)
-    return g2 * c3 - g3 * c2, g3 * c1 - g1 * c3, g1 * c2 - g2 * c1
-
-
-@jit
-def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr):
-    """Body torque of the scene whose stage parameters are ``p``: none, uniform gravity
-    (``c = M g cm`` in ``P_C1..P_C3``) or the user's (with the controls ``P_U0..``).
-
-    ``torque_addr`` is the address of the user's callback (:func:`adapt_user_torque`),
-    or 0 for scenes without one.
-    """
-    kind = int(p[P_TORQUE])
-    if kind == TORQUE_GRAVITY:
-        return gravity_torque(w, x, y, z, p[P_C1], p[P_C2], p[P_C3])
-    if kind == TORQUE_USER and torque_addr != 0:
-        return call_torque(torque_addr, t, w, x, y, z, m1, m2, m3, p[P_U0], p[P_U0 + 1],
-                           p[P_U0 + 2], p[P_U0 + 3], p[P_U0 + 4], p[P_U0 + 5])
-    return 0.0, 0.0, 0.0
+def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
+    """Body torque of the model named by the stage row ``p`` (``P_TORQUE``), with the
+    model's parameter block ``mp`` and a user torque's callback address ``torque_addr``
+    (0 for none)."""
+    return dispatch.torque(int(p[P_TORQUE]), mp, p, torque_addr, t, w, x, y, z, m1, m2, m3)
 
 
 @jit

@@ -1,0 +1,137 @@
+"""A user's compiled torque ``torque(t, q, L[, p][, u])``.
+
+The user's ``@njit`` function is wrapped in a C callback of the fixed signature
+:data:`TORQUE_SIG` ``(t, w, x, y, z, m1, m2, m3, u0, ..., u5, p, k) -> (tau1, tau2, tau3)``
+(body frame; ``u`` the control inputs, held constant over a step; ``p`` a pointer to the
+body's ``k`` parameters, the model's parameter block), passed to the drivers as its
+address, a plain integer, and called through :func:`call_torque`. So the drivers are
+compiled once and cached whatever the user's function is, and a call passes an integer
+instead of a first-class function object (which numba would type and unbox, at several
+microseconds, on every call). The potential of a user torque is a Python function,
+which the kernels cannot call: :func:`potential` is NaN.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import cfunc, config, types
+
+from liebody._kernels._jit import jit
+from liebody._kernels.stages import N_CONTROLS, P_U0, TORQUE_USER
+
+CODE = TORQUE_USER
+
+TORQUE_SIG = types.UniTuple(types.float64, 3)(
+    *([types.float64] * (8 + N_CONTROLS)), types.CPointer(types.float64), types.intp)
+
+#: address -> adapter, for the uncompiled kernels (NUMBA_DISABLE_JIT=1) and to keep
+#: every adapter alive for as long as the drivers may call its address
+_ADAPTERS: dict = {}
+
+
+def adapt_user_torque(user, controls: int = 0, params: bool = False):
+    """Wrap a user ``@njit`` torque as a :data:`TORQUE_SIG` callback; returns its address.
+
+    The user's signature is ``torque(t, q, L)``, ``torque(t, q, L, p)`` with ``params``,
+    and with ``controls = k`` (1 to ``N_CONTROLS``) the first ``k`` control inputs ``u``
+    last: ``torque(t, q, L, u)`` or ``torque(t, q, L, p, u)``. The wrapper builds the
+    ``q``, ``L`` (and ``u``) arrays for each call (small allocations per torque
+    evaluation, the price of the friendly signature; ``p`` is a view of the body's
+    parameter row). A callback cannot raise, so a torque that raises, or returns
+    anything but three numbers, yields NaN: the driver stops at that step
+    (``STATUS_TORQUE``) and the Python side calls the torque again to raise its error.
+    The adapter is kept for the life of the process (its address is what the drivers
+    call).
+    """
+    import numpy as np
+    from numba import carray
+
+    if not 0 <= controls <= N_CONTROLS:
+        raise ValueError(f"controls must be 0 to {N_CONTROLS}, got {controls}")
+
+    def evaluate(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, p):
+        q = np.empty(4)
+        q[0], q[1], q[2], q[3] = w, x, y, z
+        L = np.empty(3)
+        L[0], L[1], L[2] = m1, m2, m3
+        try:
+            if controls:
+                u = np.empty(controls)
+                every = (u0, u1, u2, u3, u4, u5)
+                for i in range(controls):
+                    u[i] = every[i]
+                tau = np.asarray(user(t, q, L, p, u) if params else user(t, q, L, u),
+                                 dtype=np.float64)
+            else:
+                tau = np.asarray(user(t, q, L, p) if params else user(t, q, L),
+                                 dtype=np.float64)
+        except Exception:
+            return math.nan, math.nan, math.nan
+        if tau.ndim != 1 or tau.shape[0] != 3:
+            return math.nan, math.nan, math.nan
+        return tau[0], tau[1], tau[2]
+
+    if config.DISABLE_JIT:  # the uncompiled kernels call the Python function by its id
+        _ADAPTERS[id(evaluate)] = evaluate
+        return id(evaluate)
+
+    from numba import njit
+
+    inner = njit(evaluate)  # (uncached, as the callback: the user's function is new)
+
+    def body(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, pp, k):
+        return inner(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, carray(pp, (k,)))
+
+    adapter = cfunc(TORQUE_SIG)(body)
+    _ADAPTERS[adapter.address] = adapter
+    return adapter.address
+
+
+def _call_torque_py(addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp):
+    """:func:`call_torque` for the uncompiled kernels: the adapter's Python function."""
+    return _ADAPTERS[addr](t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp)
+
+
+def _call_torque_intrinsic():
+    from llvmlite import ir
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def call_torque(typingctx, addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp):
+        """Call the :data:`TORQUE_SIG` callback at the integer address ``addr`` with the
+        data pointer and length of the 1-d float64 array ``mp``."""
+        sig = TORQUE_SIG.return_type(types.intp, *TORQUE_SIG.args[:-2], mp)
+
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(context.get_value_type(TORQUE_SIG.return_type),
+                                   [context.get_value_type(a) for a in TORQUE_SIG.args])
+            fptr = builder.inttoptr(args[0], fnty.as_pointer())
+            ary = context.make_array(signature.args[-1])(context, builder, args[-1])
+            length = cgutils.unpack_tuple(builder, ary.shape, 1)[0]
+            return builder.call(fptr, [*args[1:-1], ary.data, length])
+
+        return sig, codegen
+
+    return call_torque
+
+
+#: ``call_torque(addr, t, w, x, y, z, m1, m2, m3, u0, ..., u5, mp)``: call the user torque
+#: callback whose address is ``addr`` (an adapter made by :func:`adapt_user_torque`)
+call_torque = _call_torque_py if config.DISABLE_JIT else _call_torque_intrinsic()
+
+
+@jit
+def torque(t, w, x, y, z, m1, m2, m3, p, addr, mp):
+    """The user torque with the stage's controls ``p[P_U0:]`` and the parameters ``mp``."""
+    if addr == 0:
+        return 0.0, 0.0, 0.0
+    return call_torque(addr, t, w, x, y, z, m1, m2, m3, p[P_U0], p[P_U0 + 1], p[P_U0 + 2],
+                       p[P_U0 + 3], p[P_U0 + 4], p[P_U0 + 5], mp)
+
+
+@jit
+def potential(t, w, x, y, z, mp):
+    """A user potential is Python: not evaluable in the kernels."""
+    return math.nan
