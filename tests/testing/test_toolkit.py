@@ -42,7 +42,7 @@ def _rhs(moments):
 def python_rk4(moments):
     f = _rhs(np.asarray(moments, dtype=float))
 
-    def step(q, L, h):
+    def python_rk4(q, L, h):
         k1 = f(q, L)
         k2 = f(q + 0.5 * h * k1[0], L + 0.5 * h * k1[1])
         k3 = f(q + 0.5 * h * k2[0], L + 0.5 * h * k2[1])
@@ -50,7 +50,7 @@ def python_rk4(moments):
         return (q + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]),
                 L + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]))
 
-    return step
+    return python_rk4
 
 
 def python_euler(moments):
@@ -119,7 +119,8 @@ def test_python_rk4_is_order_4_and_drifts():
     step = python_rk4(p.scene.moments)
     order = testing.observed_order(step, p)
     assert order.reliable and order.rounded == 4, order
-    traj = testing.run_step(step, p, dt=0.2, steps=20_000, save_every=20)
+    with pytest.warns(liebody.InvariantWarning, match=r"python_rk4.*\|q\| = .* at the end"):
+        traj = testing.run_step(step, p, dt=0.2, steps=20_000, save_every=20)
     verdict = testing.energy_drift(traj)
     assert verdict.kind == "drift", verdict
     assert verdict.rate < 0  # RK4 dissipates energy on the free body
@@ -132,9 +133,16 @@ def test_python_euler_is_order_1_and_drifts():
     step = python_euler(p.scene.moments)
     order = testing.observed_order(step, p, t_end=1.0)
     assert order.reliable and order.rounded == 1, order
-    traj = testing.run_step(step, p, dt=1e-3, steps=10_000, save_every=10)
+    # over two periods of the orbit the energy's oscillation about its trend could be a
+    # slow one: too short to tell (before: "drift", confidence 1.00); over 20, a drift
+    with pytest.warns(liebody.InvariantWarning, match=r"\|q\|"):
+        short = testing.run_step(step, p, dt=1e-3, steps=10_000, save_every=10)
+    assert testing.energy_drift(short).kind == "undetermined"
+    with pytest.warns(liebody.InvariantWarning, match=r"\|q\|"):
+        traj = testing.run_step(step, p, dt=1e-3, steps=100_000, save_every=100)
     verdict = testing.energy_drift(traj)
     assert verdict.kind == "drift" and verdict.rate > 0, verdict  # Euler gains energy
+    assert verdict.cycles >= testing.MIN_CYCLES
     with pytest.raises(AssertionError, match="the energy drifts"):
         testing.assert_invariants(traj, qnorm=None, casimir=None, spatial_L=None)
 
@@ -296,7 +304,9 @@ def test_a_step_that_blows_up_ends_the_run():
     def bad(q, L, h):
         return q, L + math.inf
 
-    traj = testing.run_step(bad, p, dt=0.1, steps=5)
+    with pytest.warns(RuntimeWarning, match=r"bad: the state became non-finite at step 1 "
+                                            r"\(t = 0\.1\); returning the 1 samples"):
+        traj = testing.run_step(bad, p, dt=0.1, steps=5)
     assert traj.status == "failed" and traj.failed_at == pytest.approx(0.1) and len(traj) == 1
 
 
@@ -334,7 +344,8 @@ def test_assert_invariants_fails_runs_that_did_not_complete():
         n[0] += 1
         return (q, L) if n[0] < 500 else (q * np.nan, L)
 
-    traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
+    with pytest.warns(RuntimeWarning, match="non-finite at step 500"):
+        traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
     assert traj.status == "failed"
     with pytest.raises(AssertionError, match=r"the run did not complete: failed at t = "):
         testing.assert_invariants(traj, energy=None)
@@ -381,3 +392,118 @@ def test_bounded_oscillations_are_not_called_random_walks():
     traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.013, steps=600_000,
                              method="splitting2", save_every=10)
     assert testing.energy_drift(traj).kind == "bounded"
+
+
+def test_a_run_step_that_keeps_q_warns_nothing():
+    """run_step warns as integrate does: nothing for a healthy run (the splitting keeps
+    |q| to round-off); an InvariantWarning (|q|) and a failure warning are tested above."""
+    import warnings
+
+    p = testing.problem("asym")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        testing.run_step(python_splitting(p.scene.moments), p, dt=0.05, steps=200)
+
+
+def test_a_failed_run_with_few_samples_is_reported_as_failed():
+    """A one-body run that failed before the 64 samples the energy verdict needs: the
+    assertion says the run failed, and when (before: a ValueError about 64 samples)."""
+
+    def dies(q, L, h, n=[0]):  # noqa: B006 - a counter kept between calls
+        n[0] += 1
+        return (q, L) if n[0] < 30 else (q, L * np.nan)
+
+    with pytest.warns(RuntimeWarning, match="non-finite at step 30"):
+        traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
+    assert len(traj) == 30
+    with pytest.raises(AssertionError, match=r"the run did not complete: failed at "
+                                             r"t = 0\.3\b"):
+        testing.assert_invariants(traj)  # energy="auto": "bounded" for the free body
+    # a complete run that short is bad input, as before
+    short = testing.run_step(python_splitting(testing.problem("hlw").scene.moments), "hlw",
+                             dt=0.01, steps=30)
+    with pytest.raises(ValueError, match="at least 64 samples"):
+        testing.assert_invariants(short)
+
+
+def test_energy_drift_finds_a_drift_under_a_fast_oscillation():
+    """A trend of 3e-10 per unit time (160 standard errors) under an oscillation of
+    amplitude 1e-6 and period 2 pi, slower than the 256 blocks (T / 256 = 3.9): the
+    structure function sees the oscillation, the 20 blocks of the trend's fit average
+    it out (before: "bounded", confidence 1.00)."""
+    t = np.linspace(0.0, 1000.0, 20_001)
+    found = testing.energy_drift(t=t, energy=1.0 + 3e-10 * t + 1e-6 * np.sin(t))
+    assert found.kind == "drift", found
+    expected = 3e-10 + np.polyfit(t, 1e-6 * np.sin(t), 1)[0]  # the sine's own slope
+    assert abs(found.rate - expected) < 5 * found.rate_stderr < 0.05 * 3e-10, found
+    assert found.confidence > 0.9, found
+    # the oscillation alone, and with a trend 100 times smaller (1.6 sigma), is bounded
+    for rate in (0.0, 3e-12):
+        found = testing.energy_drift(t=t, energy=1.0 + rate * t + 1e-6 * np.sin(t))
+        assert found.kind == "bounded", (rate, found)
+
+
+@pytest.mark.parametrize("periods", [0.1, 1 / 3, 1.0, 2.0, 2.5])
+def test_energy_drift_says_when_a_run_is_too_short(periods):
+    """An oscillation seen for fewer than 3 periods cannot be told from a drift or a
+    random walk (before: a third of a period was "drift", confidence 1.00; two periods a
+    "random walk", confidence 1.00): "undetermined", and assert_invariants fails."""
+    t = np.linspace(0.0, 1.0, 1000)
+    energy = 1.0 + 1e-6 * np.sin(2 * np.pi * periods * t + 0.3)
+    found = testing.energy_drift(t=t, energy=energy)
+    assert found.kind == "undetermined" and found.confidence == 0.0, found
+    assert found.cycles < testing.MIN_CYCLES
+    assert "too short to tell" in str(found)
+    # an oscillation over a thousand periods is bounded; a clean ramp is a drift
+    long_t = np.linspace(0.0, 2000.0, 20_000)
+    assert testing.energy_drift(t=long_t, energy=1.0 + 1e-6 * np.sin(
+        3.1 * long_t + 0.3)).kind == "bounded"
+    ramp = testing.energy_drift(t=t, energy=1.0 + 1e-9 * t)
+    assert ramp.kind == "drift" and ramp.cycles == math.inf, ramp
+
+
+def test_assert_invariants_fails_a_run_too_short_to_tell():
+    p = testing.problem("hlw")
+    traj = liebody.integrate(p.scene, q0=p.q0, L0=p.L0, dt=0.01, steps=200,
+                             method="splitting2")  # a fifth of the orbit's period or so
+    assert testing.energy_drift(traj).kind == "undetermined"
+    with pytest.raises(AssertionError, match="the energy could not be shown bounded: "
+                                             "undetermined: the run is too short"):
+        testing.assert_invariants(traj)
+    testing.assert_invariants(traj, energy=1e-4)  # a tolerance decides
+
+
+def test_observed_order_names_the_step_whose_result_was_not_finite():
+    """A step that returns NaN: the error names the step sizes (before: "no asymptotic
+    range ... inf", never NaN); one that breaks only at small steps no longer hands back
+    the order read from the larger ones."""
+    p = testing.problem("asym")
+    with pytest.raises(ValueError, match=r"not finite .* at h = 0\.25, 0\.125"):
+        testing.observed_order(lambda q, L, h: (q * np.nan, L), p)
+    good = python_splitting(p.scene.moments)
+
+    def breaks_small(q, L, h):
+        return good(q, L, h) if h > 0.05 else (q, L * np.nan)
+
+    with pytest.raises(ValueError, match=r"not finite .* at h = 0\.03125\b"):
+        testing.observed_order(breaks_small, p)
+    with pytest.raises(ValueError, match=r"not finite .* at h = 0\.0625, 0\.03125"):
+        testing.observed_order(error=lambda n: math.nan if n >= 16 else 0.05 / n**2,
+                               t_end=1.0, h_max=0.5)
+
+
+def test_observed_order_of_an_error_function():
+    """error(n) against one's own reference: a known law C h^3 with a large-step regime
+    refused (inf) and a round-off floor."""
+    def error(n):
+        h = 1.0 / n
+        return math.inf if h > 0.3 else max(0.7 * h**3, 3e-13)
+
+    found = testing.observed_order(error=error, t_end=1.0)
+    assert abs(found.order - 3.0) < 1e-9 and found.reliable and found.steps[0] <= 0.3
+    with pytest.raises(ValueError, match="not both"):
+        testing.observed_order("splitting2", "hlw", error=error)
+    with pytest.raises(ValueError, match="needs t_end"):
+        testing.observed_order(error=error)
+    with pytest.raises(ValueError, match="give a method and a problem"):
+        testing.observed_order("splitting2")
