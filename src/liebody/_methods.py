@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import warnings
 from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -240,19 +241,105 @@ def check_composition(coefficients, order: float, base_order: int = 2) -> tuple[
     return tuple(float(v) for v in g)
 
 
+#: size of the random matrices that stand for the sub-flows' vector fields in
+#: :func:`check_splitting` (a matrix identity of degree below ``2 n`` does not hold for
+#: ``n x n`` matrices, Amitsur-Levitzki: 6 x 6 ones tell the conditions up to order 11)
+_ORDER_MATRIX = 6
+
+
+def check_splitting(flows, order: int) -> None:
+    """Check the declared order of a splitting of exact sub-flows (``FlowSequence``).
+
+    A splitting ``exp(a_s h X_s) ... exp(a_1 h X_1)`` has order ``p`` when the logarithm
+    of the product is ``h (X_1 + ... + X_m) + O(h^(p+1))``: its terms of degree 2 to
+    ``p`` in ``h`` (commutators of the ``X``; Baker-Campbell-Hausdorff) vanish (Hairer,
+    Lubich & Wanner 2006, sect. III.5). The ``X`` stand for the sub-flows: ``T1``,
+    ``T2``, ``T3``, ``kick``, ``damp``, a clock (``kick`` reads the time; the other
+    flows commute with it), ``free = T1 + T2 + T3``. The terms are computed as exact
+    power series in ``h`` with fixed random matrices in place of the ``X``: conditions
+    for a generic scene, so an order reached only through the structure of a special
+    body is refused (measure it with :func:`liebody.testing.observed_order` and
+    register a :class:`Method` yourself). Raises ``ValueError`` naming the first degree
+    whose terms do not vanish.
+    """
+    recipe = flows if isinstance(flows, P.FlowSequence) else P.FlowSequence(tuple(flows))
+    p = int(order)
+    if p < 2:
+        return
+    n = _ORDER_MATRIX
+    rng = np.random.default_rng(20)  # fixed: the check is deterministic
+    eye_b = np.eye(2)
+
+    def generic(size):
+        a = rng.normal(size=(size, size))
+        return a / np.linalg.norm(a, 2)
+
+    rot = [np.kron(generic(n), eye_b) for _ in range(3)]
+    gens = {"T1": rot[0], "T2": rot[1], "T3": rot[2], "free": rot[0] + rot[1] + rot[2],
+            "damp": np.kron(generic(n), eye_b), "kick": generic(2 * n)}
+    clock = np.kron(np.eye(n), generic(2))  # commutes with every flow but the kick
+    dim = 2 * n
+    # the product as a power series in h: coefficient matrices of h^0 .. h^p
+    series = [np.eye(dim)] + [np.zeros((dim, dim)) for _ in range(p)]
+    total = np.zeros((dim, dim))
+
+    def times_exp(series, X):
+        powers = [np.eye(dim)]
+        for j in range(1, p + 1):
+            powers.append(powers[-1] @ X / j)
+        return [sum(powers[j] @ series[d - j] for j in range(d + 1)) for d in range(p + 1)]
+
+    for name, frac, tick in recipe.flows:
+        series = times_exp(series, frac * gens[name])
+        total = total + frac * gens[name]
+        if tick:
+            series = times_exp(series, tick * clock)
+            total = total + tick * clock
+    # log(I + Y), Y = series - I (no h^0 term), up to h^p
+    Y = [np.zeros((dim, dim))] + series[1:]
+    log = [np.zeros((dim, dim)) for _ in range(p + 1)]
+    power = Y
+    for k in range(1, p + 1):
+        for d in range(p + 1):
+            log[d] = log[d] + ((-1) ** (k + 1) / k) * power[d]
+        power = [sum(power[j] @ Y[d - j] for j in range(1, d)) if d >= 2 else
+                 np.zeros((dim, dim)) for d in range(p + 1)]
+    scale = sum(abs(f) + abs(c) for _, f, c in recipe.flows)
+    for d in range(2, p + 1):
+        size = float(np.abs(log[d]).max())
+        if size > 1e-11 * scale**d:
+            raise ValueError(
+                f"flows: the declared order {p} is false: the terms of degree {d} in h "
+                f"of the splitting's logarithm (Baker-Campbell-Hausdorff) do not vanish "
+                f"(largest {size:.3e}); order {p} needs every term of degree 2 to {p} to "
+                f"vanish, so this sequence has order {d - 1}")
+
+
 # ----------------------------------------------------------------------------------------
 # the registry
 # ----------------------------------------------------------------------------------------
 
 _REGISTRY: dict[str, Method] = {}
+#: the names liebody registers itself (replacing one warns); filled once they are
+_BUILTIN: frozenset = frozenset()
 
 
 def register(method: Method, *, replace: bool = False) -> Method:
     """Add ``method`` to the catalogue (``replace=True`` to redefine a name).
 
     A registered method is integrable by :func:`liebody.integrate`, listed by
-    :func:`methods` and picked up by the generic tests at once.
+    :func:`methods` and picked up by the generic tests at once. Its declared order is
+    checked where the recipe allows: the power conditions of a symmetric composition
+    (:func:`check_composition`), the order conditions of a splitting of exact sub-flows
+    (:func:`check_splitting`). Replacing one of liebody's built-in methods (some are
+    the scenes' default methods) warns (``UserWarning``): every run that names it, or
+    that relies on a scene's default, then runs the replacement.
     """
+    return _register(method, replace, stacklevel=3)
+
+
+def _register(method: Method, replace: bool, stacklevel: int) -> Method:
+    """:func:`register`, warning ``stacklevel`` frames up (the user's call)."""
     if not isinstance(method, Method):
         raise TypeError(f"method must be a liebody.Method, got {type(method).__name__}")
     if not isinstance(method.name, str) or not method.name.isidentifier():
@@ -265,8 +352,24 @@ def register(method: Method, *, replace: bool = False) -> Method:
                         f"{type(method.recipe).__name__}")
     if isinstance(method.recipe, P.Composition) and method.reversible:
         check_composition(method.recipe.coefficients, method.order, method.recipe.base_order)
+    if isinstance(method.recipe, P.FlowSequence) and math.isfinite(method.order):
+        check_splitting(method.recipe, int(method.order))
+    if method.name in _BUILTIN and _REGISTRY.get(method.name) is not method:
+        warnings.warn(f"register: {method.name!r} replaces liebody's built-in method of that "
+                      f"name{_default_of(method.name)}: every run that names it now runs the "
+                      f"replacement", UserWarning, stacklevel=stacklevel)
     _REGISTRY[method.name] = method
     return method
+
+
+def _default_of(name: str) -> str:
+    """`` (the default method of FreeBody, ...)`` when ``name`` is a scene's default."""
+    from liebody import scenes
+
+    owners = sorted(c.__name__ for c in vars(scenes).values()
+                    if isinstance(c, type) and getattr(c, "default_method", None) == name
+                    and c.__module__ == scenes.__name__)
+    return f" (the default method of {', '.join(owners)})" if owners else ""
 
 
 def _composition(name: str, table: str, order: int) -> Method:
@@ -337,6 +440,8 @@ for _m in (
               "drifts linearly."),
 ):
     register(_m)
+#: the names liebody registers itself (replacing one warns)
+_BUILTIN = frozenset(_REGISTRY)
 
 
 # ----------------------------------------------------------------------------------------
@@ -476,7 +581,7 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
         base_m.symplectic, base_m.reversible and report.palindromic, base_m.keeps_casimir,
         False, base_m.handles, f"{len(report.coefficients)} {base_m.name} steps",
         description=(description or f"User composition of {base_m.name}.") + f" [{report}]")
-    return register(method, replace=replace)
+    return _register(method, replace, stacklevel=3)
 
 
 def register_splitting(name: str, flows, *, order: int | None = None,
@@ -497,7 +602,11 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         ``kick`` and ``damp`` where present; the clocks add up to one step.
     order
         The order to declare; default 2 for a palindromic sequence (a symmetric
-        method), else 1. :func:`liebody.testing.observed_order` measures it.
+        method), else 1. A higher order is checked as for a composition: the order
+        conditions (the terms of degree 2 to ``order`` of the splitting's
+        Baker-Campbell-Hausdorff logarithm vanish, :func:`check_splitting`), and a
+        false one is refused; a sequence that is not palindromic cannot declare more
+        than 1. :func:`liebody.testing.observed_order` measures it.
     description, replace
         As for :func:`register`.
 
@@ -553,7 +662,7 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         name, recipe, int(order), "splitting", "damp" not in parts, sym,
         True, "free" in parts and rotations == 0 and "kick" not in parts, handles,
         f"{len(recipe.flows)} sub-flows", description=description or "User splitting.")
-    return register(method, replace=replace)
+    return _register(method, replace, stacklevel=3)
 
 
 # ----------------------------------------------------------------------------------------
@@ -580,7 +689,8 @@ class MethodTable(tuple):
             for m in self:
                 if m.name == key:
                     return m
-            raise KeyError(key)
+            raise KeyError(f"unknown method {key!r}; known methods: "
+                           f"{', '.join(sorted(self.names()))}")
         return super().__getitem__(key)
 
     def rows(self) -> Iterator[tuple[str, ...]]:

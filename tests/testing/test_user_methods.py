@@ -3,6 +3,8 @@ and checked by liebody.testing like any built-in method."""
 
 from __future__ import annotations
 
+import warnings
+
 import pytest
 
 import liebody
@@ -179,3 +181,49 @@ def test_a_splitting_whose_kicks_run_at_unmirrored_times_is_not_symmetric(regist
                                         [("kick", 0.5), ("free", 1.0, 1.0), ("kick", 0.5)])
     registered.append(strang.name)
     assert strang.order == 2 and strang.reversible
+
+
+def _strang_flows(a: float) -> list:
+    return [("T1", a / 2), ("T2", a / 2), ("T3", a), ("T2", a / 2), ("T1", a / 2)]
+
+
+def test_a_splitting_declaring_a_false_order_is_refused(registered):
+    """register_splitting checks a declared order as register_composition does (before:
+    Strang declared order 4 and was registered). Strang is order 2: its third-order BCH
+    terms do not vanish; Yoshida's triple jump of it, written as sub-flows, is order 4
+    (measured against the exact flow) and not 6."""
+    with pytest.raises(ValueError, match=r"declared order 4 is false: the terms of degree 3"):
+        liebody.register_splitting("user_bad", _strang_flows(1.0), order=4)
+    with pytest.raises(ValueError, match=r"declared order 4 is false"):
+        liebody.register_splitting("user_bad", [("kick", 0.5), ("free", 1.0, 1.0),
+                                                ("kick", 0.5)], order=4)
+    flows = _strang_flows(G1) + _strang_flows(1.0 - 2.0 * G1) + _strang_flows(G1)
+    with pytest.raises(ValueError, match=r"declared order 6 is false: the terms of degree 5"):
+        liebody.register_splitting("user_bad", flows, order=6)
+    assert "user_bad" not in liebody.methods()
+    m = liebody.register_splitting("user_jump_flows", flows, order=4)
+    registered.append(m.name)
+    assert testing.assert_order(m, "asym", 4).rounded == 4
+    # the composition route refuses the same false claim
+    with pytest.raises(ValueError, match=r"sum g\^5"):
+        liebody.register_composition("user_bad", TRIPLE_JUMP, order=6)
+
+
+def test_replacing_a_built_in_method_warns(registered):
+    """A registration that replaces a built-in (here the scenes' default, splitting2)
+    warns, naming it (before: silent); replacing a user's own method does not."""
+    original = _methods.get("splitting2")
+    try:
+        with pytest.warns(UserWarning, match=r"'splitting2' replaces liebody's built-in "
+                                             r"method .*default method of .*HeavyTop"):
+            liebody.register_composition("splitting2", [0.5, 0.5], replace=True)
+        assert liebody.methods()["splitting2"] is not original
+    finally:
+        _methods._REGISTRY["splitting2"] = original
+        _methods._PLANS.clear()
+    m = liebody.register_composition("user_halves2", [0.5, 0.5])
+    registered.append(m.name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        liebody.register_composition("user_halves2", [0.5, 0.5], replace=True)
+        liebody.register(original, replace=True)  # the built-in itself: nothing replaced
