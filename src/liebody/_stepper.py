@@ -7,12 +7,22 @@ compiled driver and its argument list) and then :meth:`Stepper.step` only calls 
 compiled kernel on its state, in place. Between calls the state (``q``, ``L``, the
 time ``t``) and the control inputs ``u`` of a :class:`~liebody.ControlledBody` can be
 read and set.
+
+A long ``step(n)`` runs in slices of steps sized by their measured cost (each about
+:data:`_SLICE_SECONDS` of wall time), so that Ctrl-C, which Python sees only between
+calls into compiled code, stops it soon whatever a step costs. The drivers carry their
+control across slices, so the slices change no bit of the result. On Ctrl-C the steps
+finished are kept (a step whose last stage was merged with the next step's first is
+completed), every thread is joined, and the stepper is left after ``m`` steps of the
+call exactly as ``step(m)`` would have left it.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import threading
+import time
 import warnings
 
 import numpy as np
@@ -26,8 +36,13 @@ from liebody.scenes import Scene
 
 __all__ = ["Stepper"]
 
-#: steps in one kernel call of a long ``step(n)`` (Ctrl-C is seen between calls)
-_SLICE = 1 << 16
+#: wall time one kernel slice of a long ``step(n)`` aims at (Ctrl-C is seen between
+#: slices)
+_SLICE_SECONDS = 0.2
+#: body-steps in the first slice of a stepper that has not measured its cost yet
+_FIRST_WORK = 64
+#: a slice is at most this many times the previous one (the first ones are noisy)
+_GROWTH = 16
 
 
 def _entry_point(runner, args):
@@ -39,6 +54,17 @@ def _entry_point(runner, args):
     sig = tuple(runner.typeof_pyval(a) for a in args)
     cres = overloads.get(sig)
     return runner if cres is None else cres.entry_point
+
+
+def _join(pool) -> None:
+    """Wait for every task given to ``pool`` (a second Ctrl-C does not cut the wait
+    short: the tasks are kernel slices of a fraction of a second)."""
+    while True:
+        try:
+            pool.shutdown(wait=True)
+            return
+        except KeyboardInterrupt:
+            continue
 
 
 class Stepper:
@@ -69,17 +95,24 @@ class Stepper:
     threads
         Threads an ensemble's steps run on (``None``: every core); one body runs on
         the calling thread.
+    simd
+        Ensembles only, as for :func:`liebody.integrate`: the kernels that step a block
+        of bodies at once in SIMD registers, for the methods and scenes they support.
+        ``None`` (default): used for ensembles of at least ``SIMD_MIN_BODIES`` (3)
+        bodies; ``True``: for any ensemble; ``False``: never (every body then gets
+        exactly the numbers of its one-body stepper). ``info["simd"]`` says whether
+        they run (per group in ``info["groups"]``).
 
     Notes
     -----
     *Agreement with integrate().* ``k`` calls ``step(n)`` give the states that
     ``integrate(..., steps=k * n, save_every=n)`` saves, bit for bit (in particular
     ``step()`` repeated equals ``save_every=1``), when the state is not set between
-    the calls: the kernel, the plan and the clock ``t = (k + j) dt`` are the same.
-    With a larger ``save_every`` the splittings merge the last kick of a step with the
-    first of the next, and the two agree to round-off. The exact flow advances the
-    state by ``n dt`` per call, and agrees with ``integrate()``'s samples (evaluated
-    from the initial state) to round-off.
+    the calls and, for an ensemble, ``simd`` is the same: the kernel, the plan and the
+    clock ``t = (k + j) dt`` are the same. With a larger ``save_every`` the splittings
+    merge the last kick of a step with the first of the next, and the two agree to
+    round-off. The exact flow advances the state by ``n dt`` per call, and agrees with
+    ``integrate()``'s samples (evaluated from the initial state) to round-off.
 
     *Zero-order hold.* The controls ``u`` are held constant over every step of a call:
     set them, then call ``step()``, as a digital controller does each period.
@@ -98,6 +131,21 @@ class Stepper:
     :attr:`failed` and skipped by later calls (a ``RuntimeWarning`` says which); the
     others go on. Setting the state clears the marks.
 
+    *Ctrl-C.* A long ``step(n)`` runs in slices of about 0.2 s (sized by their measured
+    cost), so Ctrl-C stops it within about that whatever a step costs; the slices
+    change no bit of the result. It raises :class:`~liebody.errors.IntegrationInterrupted`
+    (a ``KeyboardInterrupt``) once every thread has finished its slice, with the steps
+    done kept: the stepper is left after ``exc.step`` steps of the call, with
+    :attr:`t` and :attr:`steps` advanced by as many, exactly as ``step(exc.step)``
+    would have left it (a step whose last stage had been merged with the next one's
+    first is completed first).
+
+    *Copies, pickling and threads.* ``copy.copy``, ``copy.deepcopy`` and pickling give
+    an independent stepper with its own state, time, controls and failure marks (the
+    scene, immutable, is shared), which continues bit for bit as the original would.
+    Calls from several threads are serialised by a lock: ``step()`` called from many
+    threads at once gives the state of the same number of calls made one after another.
+
     Examples
     --------
     >>> import numpy as np
@@ -111,7 +159,8 @@ class Stepper:
     """
 
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
-                 method=None, controls=None, threads: int | None = None) -> None:
+                 method=None, controls=None, threads: int | None = None,
+                 simd: bool | None = None) -> None:
         from liebody._ensemble import resolve_threads
         from liebody._integrate import (
             _bodies,
@@ -125,11 +174,14 @@ class Stepper:
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a liebody scene (a subclass of liebody.Scene), "
                             f"got {type(scene).__name__}")
+        if simd is not None and not isinstance(simd, bool | np.bool_):
+            raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
         q = _as_unit_q("q0", q0)
         _check_batch("q0", q)
         m = _initial_momentum(scene, L0, omega0)
         self._dt = as_positive_float("dt", dt)
         self._threads = resolve_threads(threads)
+        self._simd = None if simd is None else bool(simd)
         n = _bodies(scene, q, m)
         self._method = _methods.get(scene.default_method if method is None else method)
         _methods.check_supports(self._method, scene)
@@ -151,23 +203,33 @@ class Stepper:
         self._t0 = 0.0  # the clock: t = t0 + k dt, k the steps since t was last set
         self._k = 0.0
         self._steps = 0
-        self._pool = None
+        self._ready()
         self._plan()
 
+    def _ready(self) -> None:
+        """What a stepper holds besides its state and settings (also after a copy)."""
+        self._pool = None
+        self._lock = threading.RLock()  # step() and the state, one thread at a time
+        self._size = max(1, _FIRST_WORK // (self._n or 1))  # the next slice, in steps
+
     # ------------------------------------------------------------------ set-up
-    def _plan(self) -> None:
-        """Plan the method for the current state and build the kernel's arguments."""
+    def _plan(self, momentum: np.ndarray | None = None) -> None:
+        """Plan the method for the current state (or for ``momentum``: the one an
+        earlier plan was made for) and build the kernel's arguments."""
         from liebody._integrate import write_controls
 
         self._stale = False
         self._fast = False
         if self._method.sampled:
             self.info: dict = {}
+            self._plan_m = None
             return
-        from liebody._kernels.driver import BATCH_RUNNERS, RUNNERS
+        from liebody._kernels.driver import RUNNERS
 
+        m = self._state[..., 4:] if momentum is None else momentum
+        self._plan_m = np.array(m, dtype=np.float64)  # a copy: what the plan was made for
         if self._n is None:
-            plan = self._method.plan(self._scene, self._state[4:], self._dt)
+            plan = self._method.plan(self._scene, self._plan_m, self._dt)
             params = plan.params[0].copy()
             if self._u is not None:
                 write_controls(params, self._u)
@@ -188,26 +250,59 @@ class Stepper:
             self._args = args
             self._fast = True
             return
-        groups = self._method.plans(self._scene, self._state[:, 4:], self._dt)
-        self.info = (groups[0][1].info if len(groups) == 1
-                     else {"groups": [dict(p.info, bodies=idx) for idx, p in groups]})
+        groups = self._method.plans(self._scene, self._plan_m, self._dt)
+        runners = [self._runner(plan) for _, plan in groups]
+        if len(groups) == 1:
+            self.info = dict(groups[0][1].info, simd=runners[0][1])
+        else:
+            self.info = {"groups": [dict(plan.info, bodies=idx, simd=r[1])
+                                    for (idx, plan), r in zip(groups, runners, strict=True)]}
         self._groups = []
-        for idx, plan in groups:
-            whole = len(idx) == self._n
+        for (idx, plan), (runner, simd) in zip(groups, runners, strict=True):
             params = plan.params.copy()
             if self._u is not None:
                 write_controls(params, self._u if self._u.ndim == 1 else self._u[idx])
-            g = len(idx)
-            state = self._state if whole else np.ascontiguousarray(self._state[idx])
-            self._groups.append({
-                "idx": idx, "whole": whole, "params": params, "state": state,
+            self._groups.append(self._group(idx, plan, params, runner, simd))
+        self._work = [self._chunk(g, c) for g in self._groups for c in self._chunks(len(g["idx"]))]
+
+    def _chunk(self, g: dict, c: slice) -> dict:
+        """The driver's arguments for the bodies ``c`` of group ``g``, but for the clock
+        and the slice (``t0, step0, n_steps, save_every, final``): views, built once."""
+        p = g["plan"]
+        return {"g": g, "c": c, "fn": g["runner"], "resolved": False,
+                "head": (p.kinds, p.axes, p.coefs, p.clock, g["params"][c], g["merge"],
+                         self._dt),
+                "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
+                         g["done"][c], g["status"][c], self._model.address,
+                         p.model_rows(c), g["dref"][c], g["dmax"][c])}
+
+    def _group(self, idx, plan, params, runner, simd: bool) -> dict:
+        """The arrays of a group of bodies that share a plan: views of the stepper's
+        own when the group is every body."""
+        g = len(idx)
+        whole = g == self._n
+        state = self._state if whole else np.ascontiguousarray(self._state[idx])
+        return {"idx": idx, "whole": whole, "params": params, "state": state,
                 "pu": params[:, :, S.P_U0:S.P_U0 + max(1, self._scene.controls)],
-                "plan": plan, "runner": BATCH_RUNNERS[plan.family],
-                "ctl": np.zeros((g, 2), dtype=np.int64), "q": np.empty((g, 1, 4)),
-                "m": np.empty((g, 1, 3)), "saved": np.zeros(g, dtype=np.int64),
+                "plan": plan, "runner": runner, "simd": simd,
+                "merge": bool(plan.merge_ends),
+                "ctl": np.zeros((g, 2), dtype=np.int64), "q": np.empty((g, 2, 4)),
+                "m": np.empty((g, 2, 3)), "saved": np.zeros(g, dtype=np.int64),
                 "done": np.zeros(g, dtype=np.int64),
                 "status": self._status[idx].copy(),
-                "dref": np.zeros((g, 10)), "dmax": np.zeros((g, 3))})
+                "dref": np.zeros((g, 10)), "dmax": np.zeros((g, 3))}
+
+    def _runner(self, plan):
+        """The batch driver of a group's plan and whether it is the SIMD one: the rule
+        of :func:`liebody.integrate` (``simd``, ``SIMD_MIN_BODIES``, ``simd_supports``),
+        so that a stepper runs the kernel ``integrate()`` runs."""
+        from liebody._kernels import batch
+        from liebody._kernels.driver import BATCH_RUNNERS
+
+        wanted = self._simd is not False and (self._simd or self._n >= batch.SIMD_MIN_BODIES)
+        if wanted and batch.simd_supports(plan, self._model.code):
+            return batch.SIMD_RUNNERS[(plan.family, False)], True
+        return BATCH_RUNNERS[plan.family], False
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -215,55 +310,137 @@ class Stepper:
         :attr:`u` held over them.
 
         Raises the errors of :func:`liebody.integrate` for one body (the stepper is then
-        as before the call); marks failing bodies of an ensemble (:attr:`failed`).
+        as before the call); marks failing bodies of an ensemble (:attr:`failed`). On
+        Ctrl-C raises :class:`~liebody.errors.IntegrationInterrupted` with the steps
+        done kept (``exc.step`` of them: the stepper is as ``step(exc.step)`` leaves
+        it).
         """
-        if type(n) is int and n == 1 and self._fast:  # the control loop: one compiled call
-            args = self._args
-            args[8] = self._k
-            status = self._call(*args)[2]
-            if status != S.STATUS_OK:  # the kernel has restored the state before the step
-                self._raise(status, 0, self._state.copy())
+        lock = self._lock
+        lock.acquire()
+        try:
+            if n.__class__ is int and n == 1 and self._fast:  # the control loop
+                args, ctl = self._args, self._ctl
+                args[8] = self._k
+                ctl[0] = 2  # a good step leaves 1 (save_every): tells whether it ran
+                try:
+                    status = self._call(*args)[2]
+                except KeyboardInterrupt:  # raised as the call returned: it has run
+                    self._fast_interrupted()
+                if status != S.STATUS_OK:  # the kernel has restored the state before it
+                    self._raise(status, 0, self._state.copy())
+                self._steps += 1
+                self._k += 1.0
+                return
+            n = as_positive_int("n", n)
+            if self._stale:
+                self._plan()
+            if self._method.sampled:
+                self._exact(n)
+            elif self._n is None:
+                self._one(n)
+            else:
+                self._advance(n)
+        finally:
+            lock.release()
+
+    def _fast_interrupted(self):
+        """Ctrl-C during (or just after) a one-step call: keep the step if it was taken
+        (``ctl[0]`` is back at 1 after a good step, still 2 otherwise)."""
+        ran = self._ctl[0] == 1
+        self._ctl[0] = 1
+        if ran:
             self._steps += 1
             self._k += 1.0
-            return
-        n = as_positive_int("n", n)
-        if self._stale:
-            self._plan()
-        if self._method.sampled:
-            self._exact(n)
-        elif self._n is None:
-            self._one(n)
-        else:
-            self._many(n)
-        self._steps += n
-        self._k += n
+        raise IntegrationInterrupted(
+            f"Stepper.step(1) interrupted after {int(ran)} of 1 steps; the stepper is left "
+            f"after it (t = {self.t:.6g}, steps = {self._steps:,})", None, int(ran),
+            self.t) from None
 
     def _one(self, n: int) -> None:
-        """One body: the compiled driver on the state, in slices of steps that carry the
-        driver's control across (so the slices change no bit of the result)."""
-        ctl = self._ctl
-        start = self._state.copy()
-        done = 0
-        head, (_, *tail) = self._head, self._tail
-        ctl[0], ctl[1] = n, 0  # save once, after the n-th step
+        """One body: the compiled driver on the state, in slices of about
+        :data:`_SLICE_SECONDS` that carry the driver's control across (so the slices
+        change no bit of the result).
+
+        The countdown to the next save starts at ``n + 1``, which no step reaches (the
+        last step saves because it is ``final``, as it would at ``n``: the same numbers),
+        and a save resets it to ``n + 2``: so ``ctl[0]`` tells how far the call got
+        whenever Ctrl-C comes, even as a kernel call returns.
+        """
+        ctl, state = self._ctl, self._state
+        head, tail = self._head, self._tail[1:]  # (final) goes between
+        steps0, k0 = self._steps, self._k
+        start = state.copy()
+        ctl[0], ctl[1] = n + 1, 0
+        flight = [0, 0]  # the slice in flight: its first step and its length
         try:
+            done, size = 0, self._size
             while done < n:
-                k = min(n - done, _SLICE)
-                d, _, status = self._call(*head, self._t0, self._k + done, k, n,
-                                          done + k == n, *tail)
+                k = min(size, n - done)
+                flight[0], flight[1] = done, k
+                t = time.perf_counter()
+                d, _, status = self._call(*head, self._t0, k0 + done, k, n + 2, done + k == n,
+                                          *tail)
                 if status != S.STATUS_OK:
-                    bad = self._state.copy()
-                    self._state[:] = start
-                    ctl[0], ctl[1] = 1, 0
-                    self._raise(status, done + d, bad)
+                    break
+                rate = k / max(time.perf_counter() - t, 1e-7)
+                size = int(min(max(rate * _SLICE_SECONDS, 1.0), _GROWTH * max(k, size)))
+                self._size = size
                 done += k
-            ctl[0], ctl[1] = 1, 0
+            else:
+                ctl[0], ctl[1] = 1, 0  # as the next one-step call needs it
+                self._steps, self._k = steps0 + n, k0 + n
+                return
         except KeyboardInterrupt:
-            self._state[:] = start
-            ctl[0], ctl[1] = 1, 0
-            raise IntegrationInterrupted(
-                f"Stepper.step({n}) interrupted after {done:,} steps; the stepper is left "
-                f"as it was before the call", None, done, self._clock(done)) from None
+            self._one_interrupted(n, steps0, k0, start, flight)
+        bad = state.copy()  # a step failed: back to the start, and its error
+        state[:] = start
+        ctl[0], ctl[1] = 1, 0
+        self._raise(status, done + d, bad)
+
+    def _one_interrupted(self, n: int, steps0: int, k0: float, start: np.ndarray,
+                         flight: list[int]):
+        """Ctrl-C during ``_one``: keep the steps done (read from ``ctl[0]``), complete
+        a step whose last stage was merged with the next one's first, raise."""
+        ctl, state = self._ctl, self._state
+        head, tail = self._head, self._tail[1:]
+        m = pending = None
+        completed = False
+        while True:  # a second Ctrl-C runs this again (every part can be repeated)
+            try:
+                if m is None:
+                    s, k = flight
+                    if ctl[0] == n + 2:
+                        m = n
+                    elif k > 0 and ctl[0] == n + 1 - (s + k):
+                        m = s + k
+                    else:  # the slice did not run, or failed: its outcome is unknown
+                        state[:] = start
+                        ctl[1] = 0
+                        m = 0
+                if pending is None:
+                    pending = 0 < m < n and ctl[1] != 0
+                if pending and not completed:
+                    # mid-step: the last stage of step m ran the first of step m + 1;
+                    # one more step, saved (so unmerged), ends on the state of m + 1
+                    # steps, and its save sets ctl[0] to n + 3. A failed step leaves
+                    # the state it started from: trying again is the same step
+                    if ctl[0] != n + 3:
+                        status = self._call(*head, self._t0, k0 + m, 1, n + 3, True,
+                                            *tail)[2]
+                        if status != S.STATUS_OK:  # back to the start of the call
+                            state[:] = start
+                            m, pending = 0, False
+                    if pending and ctl[0] == n + 3:
+                        m, completed = m + 1, True
+                ctl[0], ctl[1] = 1, 0
+                self._steps, self._k = steps0 + m, k0 + m
+                break
+            except KeyboardInterrupt:
+                continue
+        raise IntegrationInterrupted(
+            f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
+            f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
+            f"= {self._steps:,})", None, m, self.t) from None
 
     def _raise(self, status: int, done: int, state: np.ndarray):
         """The error of a failed step, after ``done`` good steps of this call from the
@@ -299,64 +476,152 @@ class Stepper:
                 None, done, t0)
         raise RuntimeError(f"{name}: status {status} from the driver")  # pragma: no cover
 
-    def _many(self, n: int) -> None:
-        """An ensemble: the batch driver of each group, chunks of bodies over threads."""
-        chunks = [(g, c) for g in self._groups for c in self._chunks(len(g["idx"]))]
-        starts = [g["state"].copy() for g in self._groups]
-        before = [g["status"].copy() for g in self._groups]
-        pool = self._thread_pool() if len(chunks) > 1 else None
-        done = 0
+    def _advance(self, n: int) -> None:
+        """``n`` steps of the batch driver of each group (for one body, the one body),
+        chunks of bodies over threads, in slices of about :data:`_SLICE_SECONDS`."""
+        work = self._work
+        call = {"n": n, "steps0": self._steps, "k0": self._k, "issued": [],
+                "starts": [g["state"].copy() for g in self._groups],
+                "before": [g["status"].copy() for g in self._groups],
+                "d0": [g["done"].copy() for g in self._groups], "pool": None}
         for g in self._groups:
-            g["ctl"][:] = (n, 0)  # save once, after the n-th step
+            ctl = g["ctl"]
+            ctl[:, 0] = n  # save once, after the n-th step
+            ctl[:, 1] = 0
             g["saved"][:] = 0
+        if len(work) > 1:
+            call["pool"] = self._thread_pool()
+        interrupted = False
         try:
+            done, size = 0, self._size
             while done < n:
-                k = min(n - done, _SLICE)
-
-                def run(gc, k=k, step0=self._k + done, final=done + k == n):
-                    g, c = gc
-                    g["runner"](g["plan"].kinds, g["plan"].axes, g["plan"].coefs,
-                                g["plan"].clock, g["params"][c], g["plan"].merge_ends,
-                                self._dt, self._t0, step0, k, n, final, g["state"][c],
-                                g["ctl"][c],
-                                g["q"][c], g["m"][c], g["saved"][c], g["done"][c],
-                                g["status"][c], self._model.address,
-                                g["plan"].model_rows(c), g["dref"][c],
-                                g["dmax"][c])
-
-                if pool is None:
-                    for gc in chunks:
-                        run(gc)
-                else:
-                    for f in [pool.submit(run, gc) for gc in chunks]:
-                        f.result()
+                k = min(size, n - done)
+                final = done + k == n
+                call["issued"].append((done, k, final))
+                start = time.perf_counter()
+                self._slice(call, done, k, final)
+                rate = k / max(time.perf_counter() - start, 1e-7)
+                # (a call's last slice may be short: it measures, it does not cap)
+                size = int(min(max(rate * _SLICE_SECONDS, 1.0), _GROWTH * max(k, size)))
+                self._size = size
                 done += k
         except KeyboardInterrupt:
-            for g, s, b in zip(self._groups, starts, before, strict=True):
-                g["state"][:] = s
-                g["status"][:] = b
-            raise IntegrationInterrupted(
-                f"Stepper.step({n}) interrupted after about {done:,} steps; the stepper is "
-                f"left as it was before the call", None, done, self._clock(done)) from None
+            interrupted = True
+        while True:  # bring every chunk to one step count and take stock, Ctrl-C or not
+            try:
+                m = self._settle(call) if interrupted else n
+                error = self._finish(call, m, interrupted)
+                break
+            except KeyboardInterrupt:
+                interrupted = True
+        if error is not None:
+            raise error
+
+    def _slice(self, call: dict, s: int, k: int, final: bool) -> None:
+        """Steps ``s .. s + k`` of the call on every chunk (over the pool, if any)."""
+        pool = call["pool"]
+        if pool is None:
+            for w in self._work:
+                self._run(call, w, s, k, final)
+            return
+        futures = [pool.submit(self._run, call, w, s, k, final) for w in self._work]
+        for f in futures:
+            f.result()
+
+    def _run(self, call: dict, w: dict, s: int, k: int, final: bool) -> None:
+        """Steps ``s .. s + k`` of the call on the chunk ``w``."""
+        args = (*w["head"], self._t0, call["k0"] + s, k, call["n"], final, *w["tail"])
+        w["fn"](*args)
+        if not w["resolved"]:  # compiled now: call its entry point from now on
+            w["fn"], w["resolved"] = _entry_point(w["g"]["runner"], args), True
+
+    def _settle(self, call: dict) -> int:
+        """After Ctrl-C: join the threads, bring every chunk to the same step count ``m``
+        of the call (the kernels' counters tell each chunk's), complete a step whose
+        last stage was merged with the next one's first, and return ``m``. Safe to run
+        again if a second Ctrl-C cuts it short."""
+        if call["pool"] is not None:
+            _join(call["pool"])
+            if self._pool is call["pool"]:
+                self._pool = None  # shut down: a new one next time
+            call["pool"] = None
+        ok = S.STATUS_OK
+
+        def progress(gi, g, c):
+            alive = g["status"][c] == ok
+            if not alive.any():
+                return None  # every body failed (they go back to the call's start)
+            return int(np.max((g["done"][c] - call["d0"][gi][c])[alive]))
+
+        index = {id(g): gi for gi, g in enumerate(self._groups)}
+        where = [progress(index[id(w["g"])], w["g"], w["c"]) for w in self._work]
+        m = max((p for p in where if p is not None), default=0)
+        for w, p in zip(self._work, where, strict=True):
+            for s, k, final in call["issued"]:  # the slices this chunk missed
+                if p is not None and p <= s < m:
+                    self._run(call, w, s, k, final)
+        n = call["n"]
+        if m < n and any(bool(np.any(g["ctl"][:, 1][g["status"] == ok]))
+                         for g in self._groups):
+            # mid-step: the last stage of step m ran the first of step m + 1; one more
+            # step, saved (so unmerged), ends on the state of m + 1 steps
+            call["issued"] = [e for e in call["issued"] if e[0] < m] + [(m, 1, True)]
+            for w in self._work:
+                self._run(call, w, m, 1, True)
+            m += 1
+        return m
+
+    def _finish(self, call: dict, m: int, interrupted: bool):
+        """Take stock of a call after ``m`` of its steps: failed bodies back to their
+        state before the call, the state and the clock advanced by ``m`` steps; the
+        exception to raise (``None`` if none). Idempotent (a second Ctrl-C may run it
+        again)."""
+        n = call["n"]
+        if "outcome" not in call:  # (count_nonzero: the cheap test of the usual case)
+            call["outcome"] = [None if not np.count_nonzero(g["status"]) else
+                               (g["status"] != S.STATUS_OK) & (b == S.STATUS_OK)
+                               for g, b in zip(self._groups, call["before"], strict=True)]
+            if self._n is None and call["outcome"][0] is not None:  # one body failed
+                g = self._groups[0]
+                call["failure"] = (int(g["status"][0]),
+                                   int(g["done"][0] - call["d0"][0][0]), g["state"][0].copy())
+        if self._n is None and "failure" in call:
+            g = self._groups[0]
+            g["state"][:] = call["starts"][0]
+            g["status"][:] = S.STATUS_OK
+            status, done, bad = call["failure"]
+            try:
+                self._raise(status, done, bad)
+            except Exception as exc:  # the error of the failure (numerical or a torque's)
+                return exc
         new = []
-        for g, s, b in zip(self._groups, starts, before, strict=True):
-            fresh = (g["status"] != S.STATUS_OK) & (b == S.STATUS_OK)
-            if fresh.any():
+        for g, s, fresh in zip(self._groups, call["starts"], call["outcome"], strict=True):
+            if fresh is not None and fresh.any():
                 g["state"][fresh] = s[fresh]
                 new.extend(g["idx"][fresh].tolist())
-            if not g["whole"]:
-                self._state[g["idx"]] = g["state"]
-            self._status[g["idx"]] = g["status"]
-        if new:
+            if self._n is not None:
+                if not g["whole"]:
+                    self._state[g["idx"]] = g["state"]
+                self._status[g["idx"]] = g["status"]
+        self._steps = call["steps0"] + m
+        self._k = call["k0"] + m
+        if new and not call.get("warned"):
             from liebody._ensemble import REASONS
 
+            call["warned"] = True
             first = new[0]
             warnings.warn(
                 f"{self._method.name}: {len(new)} of {self._n} bodies failed in this "
                 f"step({n}) call (e.g. body {first}: "
                 f"{REASONS.get(int(self._status[first]), 'failed')}); they are left at their "
                 f"state before the call and skipped from now on (Stepper.failed)",
-                RuntimeWarning, stacklevel=3)
+                RuntimeWarning, stacklevel=4)
+        if not interrupted:
+            return None
+        return IntegrationInterrupted(
+            f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
+            f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
+            f"= {self._steps:,})", None, m, self.t)
 
     def _chunks(self, n: int) -> list[slice]:
         parts = max(1, min(self._threads, n // 64))
@@ -373,36 +638,51 @@ class Stepper:
         return self._pool
 
     def _exact(self, n: int) -> None:
-        """The exact flow: the state advanced by ``n dt`` in closed form."""
+        """The exact flow: the state advanced by ``n dt`` in closed form (one compiled
+        call; Ctrl-C during it leaves the stepper as before the call)."""
+        from liebody._kernels.exact import exact_flow_bodies, exact_flow_times
+
         tau = np.array([n * self._dt])
+        try:
+            if self._n is None:
+                q, m = np.empty((1, 4)), np.empty((1, 3))
+                moments = np.ascontiguousarray(self._scene.moments, dtype=np.float64)
+                exact_flow_times(moments, self._state[:4].copy(), self._state[4:].copy(),
+                                 tau, q, m)
+                if not (np.isfinite(q).all() and np.isfinite(m).all()):
+                    raise IntegrationError(f"exact: the state became non-finite (t = "
+                                           f"{self.t:.6g}); the stepper is left as it was "
+                                           f"before the call", None, 0, self.t)
+                q, m = q[0], m[0]
+                ok = fresh = slice(0, 0)
+            else:
+                moments = np.ascontiguousarray(np.broadcast_to(self._scene.moments,
+                                                               (self._n, 3)))
+                q, m = np.empty((self._n, 1, 4)), np.empty((self._n, 1, 3))
+                st = np.where(self._status != 0, -1, 0).astype(np.int64)
+                exact_flow_bodies(moments, np.ascontiguousarray(self._state[:, :4]),
+                                  np.ascontiguousarray(self._state[:, 4:]), tau, q, m, st)
+                ok, fresh = st == 0, st > 0
+                q, m = q[ok, 0], m[ok, 0]
+                bad = int(fresh.sum())
+        except KeyboardInterrupt:
+            raise IntegrationInterrupted(
+                f"Stepper.step({n:,}) interrupted after 0 of {n:,} steps; the stepper is "
+                f"left as it was before the call", None, 0, self.t) from None
+        # the state and the clock together (no call in between: Ctrl-C waits for both)
         if self._n is None:
-            from liebody._kernels.exact import exact_flow_times
-
-            q, m = np.empty((1, 4)), np.empty((1, 3))
-            moments = np.ascontiguousarray(self._scene.moments, dtype=np.float64)
-            exact_flow_times(moments, self._state[:4].copy(), self._state[4:].copy(), tau, q,
-                             m)
-            if not (np.isfinite(q).all() and np.isfinite(m).all()):
-                raise IntegrationError(f"exact: the state became non-finite (t = "
-                                       f"{self.t:.6g}); the stepper is left as it was before "
-                                       f"the call", None, 0, self.t)
-            self._state[:4], self._state[4:] = q[0], m[0]
-            return
-        from liebody._kernels.exact import exact_flow_bodies
-
-        moments = np.ascontiguousarray(np.broadcast_to(self._scene.moments, (self._n, 3)))
-        q, m = np.empty((self._n, 1, 4)), np.empty((self._n, 1, 3))
-        st = np.where(self._status != 0, -1, 0).astype(np.int64)
-        exact_flow_bodies(moments, np.ascontiguousarray(self._state[:, :4]),
-                          np.ascontiguousarray(self._state[:, 4:]), tau, q, m, st)
-        ok = st == 0
-        self._state[ok, :4], self._state[ok, 4:] = q[ok, 0], m[ok, 0]
-        fresh = st > 0
-        if fresh.any():
+            self._state[:4] = q
+            self._state[4:] = m
+        else:
+            self._state[ok, :4] = q
+            self._state[ok, 4:] = m
             self._status[fresh] = S.STATUS_NONFINITE
-            warnings.warn(f"exact: {int(fresh.sum())} of {self._n} bodies became non-finite; "
+        self._steps += n
+        self._k += n
+        if self._n is not None and bad:
+            warnings.warn(f"exact: {bad} of {self._n} bodies became non-finite; "
                           f"they are left at their state before the call (Stepper.failed)",
-                          RuntimeWarning, stacklevel=3)
+                          RuntimeWarning, stacklevel=4)
 
     # ------------------------------------------------------------------ the state
     @property
@@ -428,20 +708,29 @@ class Stepper:
     @property
     def steps(self) -> int:
         """Steps taken since the stepper was made."""
-        return self._steps
+        with self._lock:
+            return self._steps
+
+    @property
+    def simd(self) -> bool | None:
+        """The ``simd`` setting (``info["simd"]`` says whether the SIMD kernels run)."""
+        return self._simd
 
     @property
     def t(self) -> float:
         """The time, ``k dt`` after ``k`` steps from 0; settable (the clock the torque sees
         continues from there)."""
-        return self._t0 + self._k * self._dt
+        with self._lock:
+            return self._t0 + self._k * self._dt
 
     @t.setter
     def t(self, value) -> None:
-        self._t0 = float(as_float_array("t", value, shape=()))
-        self._k = 0.0
-        if self._fast:
-            self._args[7] = self._t0
+        t0 = float(as_float_array("t", value, shape=()))
+        with self._lock:
+            self._t0 = t0
+            self._k = 0.0
+            if self._fast:
+                self._args[7] = self._t0
 
     def _clock(self, done: int) -> float:
         """The time after ``done`` more steps."""
@@ -452,7 +741,8 @@ class Stepper:
         splittings, the modified moments of preprocessed DMV are chosen for the orbit of
         the state): worthwhile when a controller has moved the body to a very different
         orbit. Setting :attr:`L` does it too."""
-        self._stale, self._fast = True, False
+        with self._lock:
+            self._stale, self._fast = True, False
 
     @property
     def q(self) -> np.ndarray:
@@ -463,7 +753,8 @@ class Stepper:
     @q.setter
     def q(self, value) -> None:
         q = _as_unit_q("q", value)
-        self._set(slice(0, 4), q, "q")
+        with self._lock:
+            self._set(slice(0, 4), q, "q")
 
     @property
     def L(self) -> np.ndarray:
@@ -476,8 +767,9 @@ class Stepper:
         from liebody._integrate import _initial_momentum
 
         m = _initial_momentum(self._scene, value, None, names=("L", "omega"))
-        self._set(slice(4, 7), m, "L")
-        self._stale, self._fast = True, False
+        with self._lock:
+            self._set(slice(4, 7), m, "L")
+            self._stale, self._fast = True, False
 
     @property
     def omega(self) -> np.ndarray:
@@ -489,8 +781,9 @@ class Stepper:
         from liebody._integrate import _initial_momentum
 
         m = _initial_momentum(self._scene, None, value, names=("L", "omega"))
-        self._set(slice(4, 7), m, "omega")
-        self._stale, self._fast = True, False
+        with self._lock:
+            self._set(slice(4, 7), m, "omega")
+            self._stale, self._fast = True, False
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -507,15 +800,17 @@ class Stepper:
             raise ValueError("state must be a pair (q, L)") from None
         q = self._fit(_as_unit_q("q", q), "q")  # both checked before either is set
         m = self._fit(_initial_momentum(self._scene, L, None, names=("L", "omega")), "L")
-        self._set(slice(0, 4), q, "q")
-        self._set(slice(4, 7), m, "L")
-        self._stale, self._fast = True, False
+        with self._lock:
+            self._set(slice(0, 4), q, "q")
+            self._set(slice(4, 7), m, "L")
+            self._stale, self._fast = True, False
 
     @property
     def u(self) -> np.ndarray | None:
         """Control inputs of a :class:`~liebody.ControlledBody` (``(k,)``, or ``(N, k)``
         one row per body), held over the following steps; ``None`` for other scenes."""
-        return None if self._u is None else self._u.copy()
+        with self._lock:
+            return None if self._u is None else self._u.copy()
 
     @u.setter
     def u(self, value) -> None:
@@ -535,15 +830,16 @@ class Stepper:
 
             u = as_controls(self._scene, value, self._n, name="u")  # raises, naming the rule
             u = np.array(np.broadcast_to(u, self._u.shape))
-        self._u = u
-        if self._method.sampled:
-            return
-        if self._n is None:
-            self._pu[...] = u
-        else:
-            for g in self._groups:
-                g["pu"][...] = (u if u.ndim == 1 else
-                                (u if g["whole"] else u[g["idx"]])[:, None, :])
+        with self._lock:
+            self._u = u
+            if self._method.sampled:
+                return
+            if self._n is None:
+                self._pu[...] = u  # (the one-body group shares these parameters)
+            else:
+                for g in self._groups:
+                    g["pu"][...] = (u if u.ndim == 1 else
+                                    (u if g["whole"] else u[g["idx"]])[:, None, :])
 
     @property
     def failed(self) -> np.ndarray | bool:
@@ -551,13 +847,15 @@ class Stepper:
         always ``False`` (a failing step raises)."""
         if self._n is None:
             return False
-        return self._status != S.STATUS_OK
+        with self._lock:
+            return self._status != S.STATUS_OK
 
     def _view(self, sl: slice) -> np.ndarray:
-        if self._n is None:
-            return self._state[sl].copy()
-        self._gather()
-        return self._state[:, sl].copy()
+        with self._lock:
+            if self._n is None:
+                return self._state[sl].copy()
+            self._gather()
+            return self._state[:, sl].copy()
 
     def _gather(self) -> None:
         if self._n is not None and not self._method.sampled:
@@ -591,6 +889,43 @@ class Stepper:
                 g["status"][:] = S.STATUS_OK
                 if not g["whole"]:
                     g["state"][:] = self._state[g["idx"]]
+
+    # ------------------------------------------------------------------ copies, pickling
+    def __getstate__(self) -> dict:
+        """The stepper's state, settings and the momentum its plan was made for (copies:
+        the plan, the kernel's arguments, the lock and the threads are rebuilt)."""
+        with self._lock:
+            self._gather()
+            return {"scene": self._scene, "method": self._method, "dt": self._dt,
+                    "threads": self._threads, "simd": self._simd, "n": self._n,
+                    "u": None if self._u is None else self._u.copy(),
+                    "state": self._state.copy(), "status": self._status.copy(),
+                    "t0": self._t0, "k": self._k, "steps": self._steps,
+                    "plan_m": None if self._plan_m is None else self._plan_m.copy(),
+                    "stale": self._stale, "size": self._size}
+
+    def __setstate__(self, state: dict) -> None:
+        self._scene, self._method, self._dt = state["scene"], state["method"], state["dt"]
+        self._threads, self._simd, self._n = state["threads"], state["simd"], state["n"]
+        self._model = self._scene.torque_model()
+        self._u, self._state, self._status = state["u"], state["state"], state["status"]
+        self._t0, self._k, self._steps = state["t0"], state["k"], state["steps"]
+        self._ready()
+        self._size = state["size"]
+        self._plan(state["plan_m"])  # the plan the original runs (not re-planned)
+        if state["stale"]:
+            self._stale, self._fast = True, False
+
+    def __copy__(self) -> Stepper:
+        """An independent stepper: its own state, clock, controls and failure marks
+        (``copy.copy`` shares no array with the original)."""
+        new = type(self).__new__(type(self))
+        new.__setstate__(self.__getstate__())
+        return new
+
+    def __deepcopy__(self, memo) -> Stepper:
+        """As :meth:`__copy__` (the scene, immutable, is shared)."""
+        return self.__copy__()
 
     def __repr__(self) -> str:
         who = "" if self._n is None else f", {self._n} bodies"

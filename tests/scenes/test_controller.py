@@ -474,21 +474,6 @@ def test_t_reads_back_what_was_set():
         assert s.t == t, (t, s.t)
 
 
-@pytest.mark.parametrize("bodies", [None, 3])
-def test_a_long_step_call_equals_integrate(bodies):
-    """The contract holds for any n, also beyond the stepper's slice of 2**16 steps."""
-    free = liebody.FreeBody(liebody.RigidBody(MOMENTS))
-    L0 = np.array([0.3, -1.0, 0.6]) if bodies is None else np.array(
-        [[0.3, -1.0, 0.6], [1.0, 0.2, -0.1], [-0.2, 0.5, 0.9]])
-    n = 70_000
-    s = liebody.Stepper(free, L0=L0, dt=0.01, method="splitting2")
-    s.step(n)
-    ref = liebody.integrate(free, L0=L0, dt=0.01, steps=n, save_every=n, method="splitting2",
-                            simd=False)  # a stepper runs the one-body loop for every body
-    np.testing.assert_array_equal(s.q, ref.q[..., -1, :])
-    np.testing.assert_array_equal(s.L, ref.L[..., -1, :])
-
-
 # ----------------------------------------------------------------------- ensembles
 
 ENS_MOMENTS = np.array([[1200.0, 1100.0, 800.0],
