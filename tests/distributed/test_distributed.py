@@ -103,8 +103,8 @@ def test_one_body_is_refused(client):
 
 def test_small_tasks_run_the_kernels_of_the_local_call(client):
     """Tasks of 1 or 2 bodies (below SIMD_MIN_BODIES) still run the SIMD kernels the local
-    call of the whole ensemble runs, so the result is the same bit for bit; tasks whose
-    plans differ (other axis orderings) keep their own info."""
+    call of the whole ensemble runs, so the result is the same bit for bit, and the
+    info is the local call's."""
     scene, q0, L0 = _ensemble(7)
     kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 300, "method": "splitting2",
           "save_every": 100}
@@ -116,7 +116,7 @@ def test_small_tasks_run_the_kernels_of_the_local_call(client):
                                                **kw)
         np.testing.assert_array_equal(remote.q, local.q)
         np.testing.assert_array_equal(remote.L, local.L)
-        assert "tasks" in remote.info or remote.info == local.info
+        assert _same(remote.info, local.info)  # (before: {"tasks": [...]} of their own)
     off = liebody.distributed.integrate(scene, client=client, bodies_per_task=2, simd=False,
                                         **kw)
     np.testing.assert_array_equal(off.q, liebody.integrate(scene, simd=False, **kw).q)
@@ -173,3 +173,246 @@ def test_failures_controls_t0_and_dask_arrays_as_the_local_call(client):
     remote = liebody.distributed.integrate(steered, client=client, bodies_per_task=3, **kw)
     np.testing.assert_array_equal(remote.q, local.q)
     np.testing.assert_array_equal(remote.t, local.t)
+
+
+# ----------------------------------------------------------------------------------------
+# issues 20 and 21, on an in-process cluster (no worker process to start or compile in)
+# ----------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def inproc():
+    c = distributed.Client(processes=False, n_workers=1, threads_per_worker=2,
+                           dashboard_address=None, silence_logs=40)
+    yield c
+    c.close()
+
+
+def _same(a, b) -> bool:
+    """Deep equality of ``info`` dicts, which may hold arrays (NaN equal to NaN)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return (isinstance(a, np.ndarray) and isinstance(b, np.ndarray)
+                and a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+    return type(a) is type(b) and a == b
+
+
+def _assert_local(remote, local, remote_w=(), local_w=()):
+    """``remote`` is ``local``: samples, per-body records, info, diagnostics, warnings."""
+    np.testing.assert_array_equal(remote.t, local.t)
+    np.testing.assert_array_equal(remote.q, local.q)
+    np.testing.assert_array_equal(remote.L, local.L)
+    assert list(remote.status) == list(local.status)
+    np.testing.assert_array_equal(remote.failed_at, local.failed_at)
+    assert _same(remote.info, local.info), (remote.info, local.info)
+    assert (remote.diagnostics is None) == (local.diagnostics is None)
+    for k, v in (local.diagnostics or {}).items():
+        np.testing.assert_array_equal(remote.diagnostics[k], v)
+    assert ([(w.category, str(w.message)) for w in remote_w]
+            == [(w.category, str(w.message)) for w in local_w])
+
+
+def _flagged(t, q, L, p):
+    """A torque that is NaN for the bodies whose p[0] is set (from the initial state on)."""
+    out = np.empty(3)
+    if p[0] > 0.0:
+        out[:] = np.nan
+    else:
+        out[0], out[1], out[2] = 0.1 * q[1], 0.1 * q[2], -0.1 * q[3]
+    return out
+
+
+def _nan_above(t, q, L):
+    """NaN where L[0] > 100 (a body's own state), else a small orientation torque."""
+    out = np.empty(3)
+    if L[0] > 100.0:
+        out[:] = np.nan
+    else:
+        out[0], out[1], out[2] = 0.1 * q[1], 0.1 * q[2], -0.1 * q[3]
+    return out
+
+
+def _bad_body_scenes(bad: int, n: int = 8):
+    """A torqued ensemble whose body ``bad`` has a NaN torque at its initial state: by a
+    per-body parameter (a batched scene, split by take) and by its state (one scene,
+    scattered)."""
+    from numba import njit
+
+    rng = np.random.default_rng(11)
+    q0 = liebody.quaternion.random(n, rng=12)
+    L0 = rng.normal(size=(n, 3))
+    flags = np.zeros((n, 1))
+    flags[bad] = 1.0
+    body = liebody.RigidBody([1.0, 2.0, 2.5])
+    by_params = liebody.TorqueBody(body, njit(_flagged), params=flags, orientation_only=True)
+    L1 = L0.copy()
+    L1[bad, 0] = 500.0
+    by_state = liebody.TorqueBody(body, njit(_nan_above), orientation_only=True)
+    return [(by_params, q0, L0), (by_state, q0, L1)]
+
+
+@pytest.mark.parametrize("case", [0, 1], ids=["per-body parameter", "state"])
+def test_a_torque_failing_at_a_tasks_first_body_fails_that_body_only(inproc, case):
+    """Issue 20: body 4 starts the second task (bodies_per_task=4) and its torque is NaN at
+    the initial state. Before, the task refused its first body and the whole run raised
+    TorqueError; now that body fails alone, as in the local call."""
+    scene, q0, L0 = _bad_body_scenes(4)[case]
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 200, "method": "splitting2",
+          "save_every": 50, "diagnostics": True}
+    with pytest.warns(RuntimeWarning) as local_w:
+        local = liebody.integrate(scene, **kw)
+    assert local.status[4] == "failed: torque failed" and list(local.status).count("complete") == 7
+    with pytest.warns(RuntimeWarning) as remote_w:
+        remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=4, **kw)
+    _assert_local(remote, local, remote_w, local_w)
+
+
+@pytest.mark.xfail(raises=liebody.TorqueError, strict=False,
+                   reason="at HEAD liebody.integrate checks body 0's torque at the initial "
+                          "state and refuses the whole run (_integrate._check_torque on "
+                          "q_init[0]) while any other body fails alone; the tasks fail every "
+                          "body alone. Remove this mark with that check (issue 20)")
+def test_a_torque_failing_at_body_0_as_the_local_call(inproc):
+    """Body 0 is no exception: a body whose torque fails at the initial state fails alone
+    (one rule for every body, issue 20), in the tasks as in the local call."""
+    scene, q0, L0 = _bad_body_scenes(0)[0]
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 200, "method": "splitting2",
+          "save_every": 50}
+    with warnings_recorded() as local_w:
+        local = liebody.integrate(scene, **kw)
+    with warnings_recorded() as remote_w:
+        remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=4, **kw)
+    _assert_local(remote, local, remote_w, local_w)
+
+
+def warnings_recorded():
+    import warnings
+
+    return warnings.catch_warnings(record=True)
+
+
+def test_failed_bodies_come_from_the_records_not_the_words(inproc, monkeypatch):
+    """Issue 21: the tasks' own summaries of their failed bodies are known from their
+    records (status, failed_at), whatever their words. Before, they were recognised by
+    the text ' bodies failed: ' and, worded otherwise, were passed on as extra warnings
+    (one per task, with the task's own body numbers)."""
+    import liebody._ensemble as ens
+
+    words = ens.failure_message
+
+    def reworded(method, status, failed_at):
+        text = words(method, status, failed_at)
+        return None if text is None else text.replace(" bodies failed: ", " bodies stopped: ")
+
+    monkeypatch.setattr(ens, "failure_message", reworded)
+    scene, q0, L0 = _bad_body_scenes(5)[1]
+    L0[2, 0] = 500.0  # a second failing body, in the first task
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 100, "method": "splitting2",
+          "save_every": None}
+    with pytest.warns(RuntimeWarning) as local_w:
+        local = liebody.integrate(scene, **kw)
+    with pytest.warns(RuntimeWarning) as remote_w:
+        remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=3, **kw)
+    assert "2 of 8 bodies stopped" in str(local_w[0].message)
+    _assert_local(remote, local, remote_w, local_w)
+
+
+def _no_tasks(client, monkeypatch):
+    """Make any submission to ``client`` fail the test."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("a task or data reached the cluster before the input was "
+                             "validated")
+
+    for name in ("submit", "scatter", "map", "compute"):
+        monkeypatch.setattr(client, name, refuse)
+
+
+@pytest.mark.parametrize(("change", "words"), [
+    ({"dt": -0.1}, "dt must be > 0"),
+    ({"dt": float("nan")}, "dt must be finite"),
+    ({"steps": 0}, "steps must be a positive integer"),
+    ({"steps": None, "t_end": 1.005}, "t_end must be a whole number of steps"),
+    ({"save_every": 0}, "save_every must be a positive integer"),
+    ({"L0": np.full((5, 3), np.nan)}, "L0 must be finite"),
+    ({"bodies_per_task": 0}, "bodies_per_task must be a positive integer"),
+    ({"threads_per_task": 1.5}, "threads_per_task must be a positive integer"),
+])
+def test_bad_input_is_refused_on_the_client_before_any_task(inproc, monkeypatch, change, words):
+    """Issue 21: before, dt, steps, save_every were validated by the tasks on the
+    workers (tracebacks in their logs), after the scene was scattered."""
+    _no_tasks(inproc, monkeypatch)
+    scene, _, L0 = _ensemble(5)
+    kw = {"L0": L0, "dt": 0.01, "steps": 10, "method": "splitting2", **change}
+    with pytest.raises(ValueError, match=words):
+        liebody.distributed.integrate(scene, client=inproc, **kw)
+
+
+def test_samples_that_do_not_fit_are_refused_before_any_task(inproc, monkeypatch):
+    """Issue 21: the gathered size is checked on the client (the local call's check and
+    words: the size, and a save_every that fits) before any task runs; before, tasks of
+    a few bodies each passed their own checks and the client ran out of memory
+    gathering them."""
+    import liebody._integrate as integ
+
+    monkeypatch.setattr(integ, "_available_memory", lambda: 200_000_000)
+    scene, _, L0 = _ensemble(100)
+    kw = {"L0": L0, "dt": 0.01, "steps": 100_000, "method": "splitting2", "save_every": 1}
+    with pytest.raises(ValueError, match="save_every") as local:
+        liebody.integrate(scene, **kw)
+    _no_tasks(inproc, monkeypatch)
+    words = r"samples of 100 bodies of 5608 B \(0\.561 GB\)"
+    with pytest.raises(ValueError, match=words) as remote:
+        liebody.distributed.integrate(scene, client=inproc, bodies_per_task=1, **kw)
+    assert str(remote.value) == str(local.value)
+
+
+def test_tasks_larger_than_a_workers_memory_limit_are_refused():
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                       memory_limit="50MB", dashboard_address=None,
+                                       silence_logs=40)
+    with cluster, distributed.Client(cluster) as small:
+        scene, _, L0 = _ensemble(64)
+        with pytest.raises(ValueError, match=r"bodies_per_task = 64: a task keeps 200,001 "
+                                             r"samples of 64 bodies \(0\.718 GB\)"):
+            liebody.distributed.integrate(scene, client=small, L0=L0, dt=0.01,
+                                          steps=200_000, method="splitting2", gather=False)
+
+
+def test_a_client_must_be_a_running_client(inproc):
+    """Issue 21: an address string or a closed client was an AttributeError from deep
+    inside; now a TypeError/ValueError naming client and what it must be."""
+    scene, _, L0 = _ensemble(5)
+    kw = {"L0": L0, "dt": 0.01, "steps": 10}
+    with pytest.raises(TypeError, match=r"client must be a dask\.distributed\.Client, not the "
+                                        r"address 'tcp://127\.0\.0\.1:8786'"):
+        liebody.distributed.integrate(scene, client="tcp://127.0.0.1:8786", **kw)
+    with pytest.raises(TypeError, match=r"client must be a dask\.distributed\.Client"):
+        liebody.distributed.integrate(scene, client=object(), **kw)
+    closed = distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
+                                dashboard_address=None, silence_logs=40,
+                                set_as_default=False)
+    closed.close()
+    with pytest.raises(ValueError, match=r"client must be a running Client.*'closed'"):
+        liebody.distributed.integrate(scene, client=closed, **kw)
+
+
+def test_info_is_the_local_calls_with_global_body_numbers(inproc):
+    """Issue 21: bodies of other axis orderings form groups; info lists them with their
+    numbers in the whole ensemble, as the local call does (before: one info per task,
+    {"tasks": [...]}, with each task's own numbers), gathered or not."""
+    scene, q0, L0 = _ensemble(40)
+    kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 50, "method": "splitting4",
+          "save_every": 10, "diagnostics": True}
+    local = liebody.integrate(scene, **kw)
+    assert len(local.info["groups"]) > 1 and local.info["groups"][0]["simd"] is True
+    remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=7, **kw)
+    _assert_local(remote, local)
+    lazy = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=7,
+                                         gather=False, **kw).to_trajectory()
+    _assert_local(lazy, local)
+    one = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=1, simd=False,
+                                        **kw)
+    _assert_local(one, liebody.integrate(scene, simd=False, **kw))
