@@ -17,47 +17,27 @@ samples NaN) and the others finish; one warning sums up.
 from __future__ import annotations
 
 import itertools
-import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-exported
+    REASONS,
+    batch_args,
+    diagnostic_reference,
+    diagnostics_dict,
+    failure_message,
+    failure_summary,
+    resolve_threads,
+    sample_diagnostics,
+    time_slices,
+    warn_invariants,
+    write_controls,
+)
 from liebody._kernels import stages as S
 from liebody.errors import IntegrationInterrupted
 from liebody.trajectory import Trajectory
-
-#: a failing body's status, in words
-REASONS = {S.STATUS_NONFINITE: "non-finite state",
-           S.STATUS_NO_CONVERGENCE: "DMV equation not solved",
-           S.STATUS_KICK_NO_CONVERGENCE: "implicit kick not solved",
-           S.STATUS_TORQUE: "torque failed"}
-
-
-def resolve_threads(threads) -> int:
-    """``threads=None``: every core; else a positive integer."""
-    if threads is None:
-        return os.cpu_count() or 1
-    if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
-        raise ValueError(f"threads must be a positive integer or None (every core), "
-                         f"got {threads!r}")
-    return int(threads)
-
-
-def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> str | None:
-    """The warning of an ensemble some of whose bodies failed (``None`` if none did): how
-    many, why, and one body of each kind with its time."""
-    bad = [i for i, s in enumerate(status) if str(s).startswith("failed")]
-    if not bad:
-        return None
-    kinds: dict[str, list[int]] = {}
-    for i in bad:
-        kinds.setdefault(str(status[i])[8:] or "failed", []).append(i)
-    words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
-                      for k, v in kinds.items())
-    return (f"{method}: {len(bad)} of {len(status)} bodies failed: {words}; their samples "
-            f"stop there (NaN after; Trajectory.failed_at and Trajectory.status per body), "
-            f"the others finished")
 
 
 class EnsembleRun:
@@ -65,8 +45,6 @@ class EnsembleRun:
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
                  threads, diagnostics=False, u=None, t0=0.0, simd=None):
-        from liebody._integrate import diagnostic_reference, time_slices
-
         self.scene, self.method, self.dt = scene, method, dt
         self.q0, self.m0 = q0, m0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
@@ -81,6 +59,7 @@ class EnsembleRun:
         self.m_out = np.empty((n, k, 3))
         self.q_out[:, 0], self.m_out[:, 0] = q0, m0
         self.status = np.zeros(n, dtype=np.int64)
+        self.state = np.empty((n, 7))  # each body's last good state
         self.done = np.zeros(n, dtype=np.int64)
         self.saved = np.zeros(n, dtype=np.int64)
         self.info: dict = {}
@@ -183,8 +162,6 @@ class EnsembleRun:
         # "saved" starts at 1: the kernel writes sample 1 + (samples saved so far)
         params = plan.params
         if self.u is not None:
-            from liebody._integrate import write_controls
-
             params = params.copy()
             write_controls(params, self.u if self.u.ndim == 1 else self.u[sel])
         g = {"idx": idx, "plan": plan, "params": params, "runner": runner, "whole": whole,
@@ -203,12 +180,12 @@ class EnsembleRun:
 
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
         p = g["plan"]
-        g["runner"](p.kinds, p.axes, p.coefs, p.clock, g["params"][c],
-                    p.merge_ends and not self.diag, self.dt, self.t0, float(done), k,
-                    self.save_every,
-                    final, g["state"][c], g["ctl"][c],
-                    g["q"][c], g["m"][c], g["saved"][c], g["done"][c], g["status"][c],
-                    self.model.address, p.model_rows(c), g["dref"][c], g["dmax"][c])
+        params = g["params"] if g["params"].shape[0] == 1 else g["params"][c]
+        g["runner"](*batch_args(p, params, p.merge_ends and not self.diag, self.dt, self.t0,
+                                float(done), k, self.save_every, final, g["state"][c],
+                                g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
+                                g["done"][c], g["status"][c], self.model.address, c,
+                                g["dref"][c], g["dmax"][c]))
 
     def _collect(self, work) -> None:
         for g in work:
@@ -217,6 +194,7 @@ class EnsembleRun:
                 self.q_out[idx, 1:] = g["q"][:, 1:]
                 self.m_out[idx, 1:] = g["m"][:, 1:]
             self.status[idx] = g["status"]
+            self.state[idx] = g["state"]
             self.done[idx] = g["done"]
             self.saved[idx] = g["saved"] - 1
             self.dmax[idx] = g["dmax"]
@@ -238,13 +216,12 @@ class EnsembleRun:
         bad = np.flatnonzero(self.status != S.STATUS_OK)
         for i in bad:
             status[i] = "failed: " + REASONS.get(int(self.status[i]), "unknown")
-        message = failure_message(self.method.name, status, failed_at)
+        message = failure_summary(self.method.name, status, failed_at, self.dt, self.model,
+                                  self.state, self.u)
         if message:
             warnings.warn(message, RuntimeWarning, stacklevel=4)
         diag = None
         if self.diag:
-            from liebody._integrate import diagnostics_dict
-
             if self.method.sampled:  # the exact flow: measured on the samples
                 self.dmax = sample_diagnostics(self.dref, self.q_out, self.m_out)
             self.dmax[self.status != S.STATUS_OK] = np.nan
@@ -252,8 +229,6 @@ class EnsembleRun:
         traj = Trajectory(self._times()[:n_keep], self.q_out[:, :n_keep], self.m_out[:, :n_keep],
                           self.scene, self.method, self.dt, failed_at=failed_at,
                           info=self.info, status=status, diagnostics=diag)
-        from liebody._integrate import warn_invariants
-
         return warn_invariants(traj, stacklevel=5)
 
     def _interrupted(self, n_keep: int):
@@ -279,20 +254,6 @@ def _simd():
     from liebody._kernels import batch
 
     return batch
-
-
-def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """The running diagnostics of the kernels (``driver._diagnose``) over saved samples of
-    the exact free flow (no potential): ``dref`` ``(N, 10)``, ``q`` ``(N, n, 4)``, ``m``
-    ``(N, n, 3)`` -> ``(N, 3)``."""
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    n2 = w * w + x * x + y * y + z * z
-    d = dref[:, None, :]
-    T = 0.5 * np.sum(m * m * d[..., :3], axis=-1)
-    e = np.abs(T - d[..., 6]) * d[..., 7]
-    qe = np.abs(np.sqrt(n2) - 1.0)
-    le = np.abs(np.linalg.norm(m, axis=-1) - d[..., 8]) * d[..., 9]
-    return np.stack([np.max(e, axis=1), np.max(qe, axis=1), np.max(le, axis=1)], axis=1)
 
 
 class _pool:

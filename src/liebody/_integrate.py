@@ -25,19 +25,33 @@ from __future__ import annotations
 
 import math
 import os
-import time
 import warnings
 
 import numpy as np
 
 from liebody import _methods
+from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distributed use them
+    FIRST_SLICE,
+    QNORM_TOL,
+    SLICE_SECONDS,
+    _end_potentials,
+    _torque_is_finite,
+    diagnostic_reference,
+    diagnostics_dict,
+    one_body_args,
+    raise_torque_error,
+    time_slices,
+    torque_stiffness,
+    warn_invariants,
+    write_controls,
+)
+from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import (
     ConvergenceError,
     IntegrationInterrupted,
-    InvariantWarning,
     TorqueError,
 )
 from liebody.scenes import Scene, TorqueModel
@@ -53,20 +67,10 @@ MAX_STEPS = 2**53
 MAX_MOMENTUM = 1e150
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
-#: wall time a slice of the run aims at: Ctrl-C is seen between slices
-SLICE_SECONDS = 0.2
-#: steps (or samples) in the first slice of a run; later slices are sized by the clock
-FIRST_SLICE = 4096
 
 #: sample times of short runs, kept read-only and shared: (n_steps, save_every, dt) -> t
 _SHORT_TIMES: dict = {}
 SHORT_TIMES_SAMPLES, SHORT_TIMES_KEPT = 64, 256
-
-#: tolerances of the end-of-run check (InvariantWarning)
-QNORM_TOL = 1e-6  # | |q| - 1 |, any method
-CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
-ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
-
 
 def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
     """Body angular momentum ``(3,)`` or ``(N, 3)`` from ``L0`` or ``omega0`` (``names``:
@@ -190,34 +194,6 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> 
             _SHORT_TIMES.pop(next(iter(_SHORT_TIMES)), None)
         _SHORT_TIMES[key] = t
     return t
-
-
-def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE):
-    """Sizes of consecutive slices covering ``total`` units, each aiming at
-    :data:`SLICE_SECONDS` of wall time (the first, of ``first`` units, measures the rate).
-
-    A run is cut into such slices so that Ctrl-C, which Python sees only between calls
-    into compiled code, stops it within about a second; ``progress`` shows a tqdm bar.
-    """
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=total, unit=unit, unit_scale=True)
-    done, size = 0, max(1, first)
-    try:
-        while done < total:
-            n = min(size, total - done)
-            start = time.perf_counter()
-            yield n
-            done += n
-            if bar is not None:
-                bar.update(n)
-            rate = n / max(time.perf_counter() - start, 1e-6)
-            size = int(min(max(rate * SLICE_SECONDS, 1), 16 * size))
-    finally:
-        if bar is not None:
-            bar.close()
 
 
 _DEFAULT_Q0 = (1.0, 0.0, 0.0, 0.0)
@@ -347,23 +323,22 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
     n_bodies = _bodies(scene, q_init, m_init)
     if threads is not None or n_bodies is not None:
-        from liebody._ensemble import EnsembleRun, resolve_threads
-
         threads = resolve_threads(threads)
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
     model = scene.torque_model()
+    _check_potential(scene, model, q_init, n_bodies, t0)
     u = as_controls(scene, controls, n_bodies)
     if n_bodies is None:
-        _check_torque(model, q_init, m_init, u)
+        _check_torque(model, q_init, m_init, u, t0)
         t = _sample_times(n_steps, save_every, dt)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
-        _check_torque(model, q_init[0], m_init[0], _first_row(u))
+        _check_torque(model, q_init[0], m_init[0], _first_row(u), t0, ensemble=True)
         t = _sample_times(n_steps, save_every, dt, n_bodies)
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                           progress, threads, diagnostics, u, t0, simd)
@@ -394,23 +369,50 @@ def scene_batch_shape(scene) -> tuple[int, ...]:
     return tuple(getattr(scene, "batch_shape", ()))
 
 
-def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None) -> None:
-    """A user torque is called once on the initial state: three finite numbers, or a
-    clear error before the run starts."""
+def _check_potential(scene, model, q0: np.ndarray, n_bodies, t0: float) -> None:
+    """A user's potential (Python, called at the end of the run for the energy check) is
+    called once on the initial orientation: a finite number, or a clear error before the
+    run starts rather than a lost run at its end."""
+    if model.code != S.TORQUE_USER or not scene.capabilities.conservative:
+        return
+    one = scene.take(0) if n_bodies is not None and scene_batch_shape(scene) else scene
+    q = np.asarray(q0, dtype=float).reshape(-1, 4)[:1]
+    try:
+        V = np.asarray(one.potential(q, t0) if getattr(one, "params", None) is not None
+                       else one.potential(q), dtype=float)
+    except Exception as exc:
+        raise ValueError(f"the scene's potential raised {type(exc).__name__} on the initial "
+                         f"orientation: {exc}") from exc
+    if V.shape != (1,):
+        raise ValueError(f"the scene's potential must give one number per orientation, got "
+                         f"shape {V.shape[1:]} for one orientation")
+    if not np.isfinite(V[0]):
+        raise ValueError(f"the scene's potential is not finite on the initial orientation "
+                         f"(V = {V[0]})")
+
+
+def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None,
+                  t0: float = 0.0, ensemble: bool = False) -> None:
+    """A user torque is called once on the initial state: three numbers, or a clear error
+    before the run starts. One body: they must be finite too. An ensemble (``q0``, ``m0``,
+    ``u`` of its body 0): a torque that raises or is not finite at one body's state fails
+    that body in the run, whichever body it is; only a wrong shape refuses the run."""
     if model.function is None:
         return
     sig = model.signature
     try:
-        value = np.asarray(model(0.0, q0, m0, u), dtype=float)
+        value = np.asarray(model(t0, q0, m0, u), dtype=float)
     except Exception as exc:
+        if ensemble:
+            return
         raise TorqueError(f"the torque {sig} raised {type(exc).__name__} on the "
-                          f"initial state: {exc}", step=0, t=0.0) from exc
+                          f"initial state: {exc}", step=0, t=t0) from exc
     if value.shape != (3,):
         raise ValueError(f"the torque {sig} must return 3 numbers, got shape "
                          f"{value.shape} on the initial state")
-    if not all(map(math.isfinite, value.tolist())):
+    if not ensemble and not all(map(math.isfinite, value.tolist())):
         raise TorqueError(f"the torque {sig} returned non-finite values "
-                          f"{value.tolist()} on the initial state", step=0, t=0.0)
+                          f"{value.tolist()} on the initial state", step=0, t=t0)
 
 
 def as_controls(scene, controls, n_bodies: int | None, name: str = "controls"
@@ -439,55 +441,6 @@ def as_controls(scene, controls, n_bodies: int | None, name: str = "controls"
 def _first_row(u):
     """The first body's controls (``None`` for none)."""
     return None if u is None else u.reshape(-1, u.shape[-1])[0]
-
-
-def write_controls(params: np.ndarray, u: np.ndarray) -> None:
-    """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, s, P)``)
-    in the control slots of every stage's parameters (the stages that do not call the
-    torque ignore them)."""
-    k = u.shape[-1]
-    if u.ndim == 2:
-        params[..., S.P_U0:S.P_U0 + k] = u[:, None, :]
-    else:
-        params[..., S.P_U0:S.P_U0 + k] = u
-
-
-def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float = 0.0
-                         ) -> np.ndarray:
-    """The kernel's reference values for the running diagnostics, ``(N, 10)``:
-    ``1/I``, the torque model's code, 0, 0, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``
-    (``E0`` NaN where the kernels cannot follow the energy: a user's Python potential,
-    a potential that depends on the time)."""
-    from liebody._models.dispatch import potentials
-
-    q0, m0 = np.atleast_2d(q0), np.atleast_2d(m0)
-    n = q0.shape[0]
-    inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
-    T0 = 0.5 * np.sum(m0 * m0 * inv, axis=1)
-    V0 = np.zeros(n)
-    potentials(model.code, model.params, np.full(n, float(t0)), np.ascontiguousarray(q0), V0)
-    code = np.full(n, float(model.code))
-    if model.code == S.TORQUE_USER:  # a Python potential, which the kernels cannot call
-        code[:] = S.TORQUE_NONE  # (without one, the energy error is the change of T)
-        V0[:] = np.nan if scene.capabilities.conservative else 0.0
-    if model.time_dependent:
-        V0[:] = np.nan
-    g = np.linalg.norm(m0, axis=1)
-    zero = np.zeros(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ref = np.column_stack([inv, code, zero, zero, T0 + V0, 1.0 / (T0 + np.abs(V0)), g,
-                               1.0 / g])
-    return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
-
-
-def diagnostics_dict(dmax: np.ndarray, one: bool, dref: np.ndarray) -> dict:
-    """``Trajectory.diagnostics`` from the kernel's running maxima ``(N, 3)``; the energy
-    error is NaN where the reference energy is (a user torque's potential, which the
-    kernel cannot evaluate: its running maximum never moved from 0)."""
-    dmax = np.array(dmax, dtype=float)
-    dmax[np.isnan(np.atleast_2d(dref)[:, 6]), 0] = np.nan
-    keys = ("max_energy_error", "max_qnorm_error", "max_casimir_error")
-    return {k: (float(dmax[0, i]) if one else dmax[:, i].copy()) for i, k in enumerate(keys)}
 
 
 class _Run:
@@ -535,8 +488,6 @@ class _Run:
             self._interrupted(done, self._step_of_sample(done - 1))
         diag = None
         if self.diag:  # the exact flow keeps its invariants: measured on the samples
-            from liebody._ensemble import sample_diagnostics
-
             diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True,
                                     self.dref)
         return self._finish(Trajectory(self._times(), q, m, self.scene, self.method, self.dt,
@@ -558,12 +509,10 @@ class _Run:
         self.info = plan.info
         runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
         params = plan.params[0]
-        mp = plan.model[0]
         if self.u is not None:
             params = params.copy()
             write_controls(params, self.u)
-        table = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
-                 plan.merge_ends and not self.diag)
+        merge = plan.merge_ends and not self.diag
         state = np.concatenate([self.q0, self.m0])
         ctl = np.array([self.save_every, 0], dtype=np.int64)
         addr = self.model.address
@@ -571,15 +520,17 @@ class _Run:
         status = S.STATUS_OK
         try:
             if self.n_steps <= FIRST_SLICE and not self.progress:  # a short run: one call
-                done, saved, status = runner(*table, self.dt, self.t0, 0.0, self.n_steps,
-                                             self.save_every, True, state, ctl, self.q_out[1:],
-                                             self.m_out[1:], addr, mp, self.dref, self.dmax)
+                done, saved, status = runner(*one_body_args(
+                    plan, params, merge, self.dt, self.t0, 0.0, self.n_steps, self.save_every,
+                    True, state, ctl, self.q_out[1:], self.m_out[1:], addr, self.dref,
+                    self.dmax))
             else:
                 for n in self._slices(self.n_steps, "step"):
-                    d, s, status = runner(*table, self.dt, self.t0, float(done), n,
-                                          self.save_every, done + n == self.n_steps, state, ctl,
-                                          self.q_out[1 + saved:], self.m_out[1 + saved:],
-                                          addr, mp, self.dref, self.dmax)
+                    d, s, status = runner(*one_body_args(
+                        plan, params, merge, self.dt, self.t0, float(done), n,
+                        self.save_every, done + n == self.n_steps, state, ctl,
+                        self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
+                        self.dmax))
                     done += d
                     saved += s
                     if status != S.STATUS_OK:
@@ -660,164 +611,3 @@ class _Run:
         return warn_invariants(traj, stacklevel=5)
 
 
-def warn_invariants(traj: Trajectory, stacklevel: int) -> Trajectory:
-    """Warn when an invariant the method should keep left its tolerance by the end."""
-    problems = _invariant_problems(traj)
-    if problems:
-        warnings.warn(f"{traj.method.name}: " + "; ".join(problems)
-                      + " (the step may be too large for this scene, or the method does "
-                        "not keep this invariant)", InvariantWarning, stacklevel=stacklevel)
-    return traj
-
-
-def _invariant_problems(traj: Trajectory) -> list[str]:
-    """The invariants of ``traj`` that left their tolerance between its first and last
-    sample, in words (empty for a healthy run). For an ensemble, per body: the words say
-    how many bodies and give one (failed bodies are left out: they warned already)."""
-    if traj.q.ndim == 2:
-        return _one_body_problems(traj)
-    method, scene = traj.method, traj.scene
-    caps = scene.capabilities
-    ens = traj.q.ndim == 3
-    q = traj.q if ens else traj.q[None]
-    L = traj.L if ens else traj.L[None]
-    ok = np.isfinite(q[:, -1]).all(axis=1) & np.isfinite(L[:, -1]).all(axis=1)
-    moments = np.broadcast_to(np.asarray(scene.moments, dtype=float), (q.shape[0], 3))
-    out = []
-
-    def report(bad, words):
-        bad = bad & ok
-        if bad.any():
-            i = int(np.argmax(bad))
-            who = f"{int(bad.sum())} of {len(bad)} bodies (e.g. body {i}): " if ens else ""
-            out.append(who + words(i))
-
-    qn = np.linalg.norm(q[:, -1], axis=1)
-    report(~(np.abs(qn - 1.0) <= QNORM_TOL),
-           lambda i: f"|q| = {qn[i]:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
-    if method.keeps_casimir and not caps.torque:
-        g0, g1 = np.linalg.norm(L[:, 0], axis=1), np.linalg.norm(L[:, -1], axis=1)
-        report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
-               lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
-                         f"{CASIMIR_TOL:g} relative")
-    T0 = 0.5 * np.sum(L[:, 0] ** 2 / moments, axis=1)
-    T1 = 0.5 * np.sum(L[:, -1] ** 2 / moments, axis=1)
-    if (method.symplectic or method.keeps_energy) and caps.conservative:
-        ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (N, 2, 4)
-        ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
-        V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[..., None]))
-        V = np.broadcast_to(V, ends.shape[:2])
-        e0, e1 = T0 + V[:, 0], T1 + V[:, 1]
-        scale = T0 + np.abs(V[:, 0])
-        report((scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
-               lambda i: f"the energy went from {e0[i]:.6g} to {e1[i]:.6g}, more than "
-                         f"{ENERGY_TOL:.0%} of its scale {scale[i]:.3g}")
-    if caps.dissipative and not caps.torque and method.keeps_casimir:  # (a torque may add)
-        report(T1 > T0 * (1.0 + 1e-9),
-               lambda i: f"the energy grew from {T0[i]:.6g} to {T1[i]:.6g} in a dissipative "
-                         f"scene")
-    return out
-
-
-def _one_body_problems(traj: Trajectory) -> list[str]:
-    """:func:`_invariant_problems` for one body, in scalar arithmetic (a few
-    microseconds: this check runs at the end of every call)."""
-    method, scene = traj.method, traj.scene
-    caps = scene.capabilities
-    q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
-    L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
-    if not all(map(math.isfinite, q1 + L1)):
-        return []  # failed: warned already
-    out = []
-    qn = math.hypot(*q1)
-    if not abs(qn - 1.0) <= QNORM_TOL:
-        out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
-    if method.keeps_casimir and not caps.torque:
-        g0, g1 = math.hypot(*L0), math.hypot(*L1)
-        if not abs(g1 - g0) <= CASIMIR_TOL * g0:
-            out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
-                       f"relative")
-    I1, I2, I3 = scene.moments.tolist()
-    T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)
-    T1 = 0.5 * (L1[0] * L1[0] / I1 + L1[1] * L1[1] / I2 + L1[2] * L1[2] / I3)
-    if (method.symplectic or method.keeps_energy) and caps.conservative:
-        V0 = V1 = 0.0
-        if caps.torque:
-            V0, V1 = _end_potentials(scene, q0, q1, float(traj.t[0]), float(traj.t[-1]))
-        e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
-        if scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
-            out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
-                       f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
-    if (caps.dissipative and not caps.torque and method.keeps_casimir
-            and T1 > T0 * (1.0 + 1e-9)):
-        out.append(f"the energy grew from {T0:.6g} to {T1:.6g} in a dissipative scene")
-    return out
-
-
-def _end_potentials(scene, q0: list, q1: list, t0: float = 0.0, t1: float = 0.0
-                    ) -> tuple[float, float]:
-    """The scene's potential at the first and last orientation (normalised) and times."""
-    model = scene.torque_model()
-    if model.code != S.TORQUE_USER:  # a model's kernel: a few microseconds
-        from liebody._models.dispatch import potentials
-
-        V = np.zeros(2)
-        potentials(model.code, model.params, np.array([t0, t1]), np.array([q0, q1]), V)
-        return float(V[0]), float(V[1])
-    ends = np.array([q0, q1])
-    V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[:, None]))
-    return float(V[0]), float(V[1])
-
-
-def _torque_is_finite(model, state, times, u=None) -> bool:
-    """Whether the user torque gives three finite numbers at ``state`` for every time."""
-    q, m = state[:4], state[4:]
-    for t in times:
-        try:
-            value = np.asarray(model(t, q, m, u), dtype=float)
-        except Exception:
-            return False
-        if value.shape != (3,) or not np.all(np.isfinite(value)):
-            return False
-    return True
-
-
-def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None):
-    """Call the user's torque at the last good state (at the step's clock values
-    ``t0``, ``t0 + dt/2``, ``t0 + dt``) to raise its own error, chained; ``traj`` (or
-    ``None``) goes on the error."""
-    sig = model.signature
-    q, m = state[:4], state[4:]
-    for t in (t0, t0 + 0.5 * dt, t0 + dt):
-        try:
-            value = np.asarray(model(t, q, m, u), dtype=float)
-        except Exception as exc:
-            raise TorqueError(f"{name}: the torque {sig} raised {type(exc).__name__} "
-                              f"({exc}) {where}", traj, step, t0) from exc
-        if value.shape != (3,):
-            raise TorqueError(f"{name}: the torque {sig} returned shape {value.shape}, not 3 "
-                              f"numbers, {where}", traj, step, t0)
-        if not np.all(np.isfinite(value)):
-            raise TorqueError(f"{name}: the torque {sig} returned non-finite values "
-                              f"{value.tolist()} {where}", traj, step, t0)
-    raise TorqueError(f"{name}: the torque {sig} raised or returned non-finite values inside "
-                      f"the step {where} (it is well behaved at the step's start state)",
-                      traj, step, t0)
-
-
-def torque_stiffness(model, state, t0, u=None) -> float:
-    """``max |dN/dL|`` of a user torque at ``state``, by central differences (a diagnosis)."""
-    if model.function is None:
-        return math.nan
-    q, m = state[:4], state[4:]
-    e = 1e-6 * max(1.0, float(np.max(np.abs(m))))
-    J = np.empty((3, 3))
-    try:
-        for k in range(3):
-            d = np.zeros(3)
-            d[k] = e
-            J[:, k] = (np.asarray(model(t0, q, m + d, u))
-                       - np.asarray(model(t0, q, m - d, u))) / (2 * e)
-    except Exception:
-        return math.nan
-    return float(np.max(np.abs(J)))

@@ -243,6 +243,7 @@ def _run_task(scene, method, q0, m0, u, spec):
     failed_at, diagnostics, which bodies ran the SIMD kernels, and the warnings the run
     emitted.
     """
+    from liebody._engine import failure_summary
     from liebody._ensemble import EnsembleRun
     from liebody._integrate import _sample_times
 
@@ -255,7 +256,10 @@ def _run_task(scene, method, q0, m0, u, spec):
         traj = run.sampled() if method.sampled else run.stepped()
     return {"q": traj.q, "L": traj.L, "status": np.asarray(traj.status),
             "failed_at": np.asarray(traj.failed_at), "diagnostics": traj.diagnostics,
-            "simd": _simd_record(traj.info, rows), "warnings": caught}
+            "simd": _simd_record(traj.info, rows), "warnings": caught,
+            "state": run.state, "summary": failure_summary(
+                method.name, traj.status, traj.failed_at, spec["dt"], run.model, run.state,
+                u)}
 
 
 def _simd_record(info: dict, rows: int) -> np.ndarray | None:
@@ -324,7 +328,7 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
     bodies come from the records (``status``, ``failed_at``), the warnings about them
     and about the invariants are made for the whole ensemble; any other warning a task
     emitted is passed on once."""
-    from liebody._ensemble import failure_message
+    from liebody._engine import failure_summary
     from liebody._integrate import warn_invariants
     from liebody.errors import InvariantWarning
     from liebody.trajectory import Trajectory
@@ -334,7 +338,8 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
     failed_at = np.concatenate([r["failed_at"] for r in records])
     # a task's own summary of its failed bodies, known from its records; the invariants
     # are checked again below over the whole ensemble
-    summaries = {failure_message(name, r["status"], r["failed_at"]) for r in records}
+    model = call.scene.torque_model()
+    summaries = {r["summary"] for r in records}
     seen = set()
     for r in records:
         for category, message in r["warnings"]:
@@ -343,7 +348,9 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
             if (category, message) not in seen:
                 seen.add((category, message))
                 warnings.warn(message, category, stacklevel=stacklevel + 1)
-    message = failure_message(name, status, failed_at)
+    states = (None if any(r["state"] is None for r in records)
+              else np.concatenate([r["state"] for r in records]))
+    message = failure_summary(name, status, failed_at, call.dt, model, states, call.u)
     if message:
         warnings.warn(message, RuntimeWarning, stacklevel=stacklevel + 1)
     diag = None

@@ -176,7 +176,7 @@ def test_failures_controls_t0_and_dask_arrays_as_the_local_call(client):
 
 
 # ----------------------------------------------------------------------------------------
-# issues 20 and 21, on an in-process cluster (no worker process to start or compile in)
+# one result as the local call, on an in-process cluster (no worker process to start)
 # ----------------------------------------------------------------------------------------
 
 
@@ -256,7 +256,7 @@ def _bad_body_scenes(bad: int, n: int = 8):
 
 @pytest.mark.parametrize("case", [0, 1], ids=["per-body parameter", "state"])
 def test_a_torque_failing_at_a_tasks_first_body_fails_that_body_only(inproc, case):
-    """Issue 20: body 4 starts the second task (bodies_per_task=4) and its torque is NaN at
+    """Body 4 starts the second task (bodies_per_task=4) and its torque is NaN at
     the initial state. Before, the task refused its first body and the whole run raised
     TorqueError; now that body fails alone, as in the local call."""
     scene, q0, L0 = _bad_body_scenes(4)[case]
@@ -270,14 +270,9 @@ def test_a_torque_failing_at_a_tasks_first_body_fails_that_body_only(inproc, cas
     _assert_local(remote, local, remote_w, local_w)
 
 
-@pytest.mark.xfail(raises=liebody.TorqueError, strict=False,
-                   reason="at HEAD liebody.integrate checks body 0's torque at the initial "
-                          "state and refuses the whole run (_integrate._check_torque on "
-                          "q_init[0]) while any other body fails alone; the tasks fail every "
-                          "body alone. Remove this mark with that check (issue 20)")
 def test_a_torque_failing_at_body_0_as_the_local_call(inproc):
     """Body 0 is no exception: a body whose torque fails at the initial state fails alone
-    (one rule for every body, issue 20), in the tasks as in the local call."""
+    (one rule for every body), in the tasks as in the local call."""
     scene, q0, L0 = _bad_body_scenes(0)[0]
     kw = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 200, "method": "splitting2",
           "save_every": 50}
@@ -295,11 +290,11 @@ def warnings_recorded():
 
 
 def test_failed_bodies_come_from_the_records_not_the_words(inproc, monkeypatch):
-    """Issue 21: the tasks' own summaries of their failed bodies are known from their
+    """The tasks' own summaries of their failed bodies are known from their
     records (status, failed_at), whatever their words. Before, they were recognised by
     the text ' bodies failed: ' and, worded otherwise, were passed on as extra warnings
     (one per task, with the task's own body numbers)."""
-    import liebody._ensemble as ens
+    import liebody._engine as ens
 
     words = ens.failure_message
 
@@ -341,7 +336,7 @@ def _no_tasks(client, monkeypatch):
     ({"threads_per_task": 1.5}, "threads_per_task must be a positive integer"),
 ])
 def test_bad_input_is_refused_on_the_client_before_any_task(inproc, monkeypatch, change, words):
-    """Issue 21: before, dt, steps, save_every were validated by the tasks on the
+    """Before, dt, steps, save_every were validated by the tasks on the
     workers (tracebacks in their logs), after the scene was scattered."""
     _no_tasks(inproc, monkeypatch)
     scene, _, L0 = _ensemble(5)
@@ -351,7 +346,7 @@ def test_bad_input_is_refused_on_the_client_before_any_task(inproc, monkeypatch,
 
 
 def test_samples_that_do_not_fit_are_refused_before_any_task(inproc, monkeypatch):
-    """Issue 21: the gathered size is checked on the client (the local call's check and
+    """The gathered size is checked on the client (the local call's check and
     words: the size, and a save_every that fits) before any task runs; before, tasks of
     a few bodies each passed their own checks and the client ran out of memory
     gathering them."""
@@ -382,7 +377,7 @@ def test_tasks_larger_than_a_workers_memory_limit_are_refused():
 
 
 def test_a_client_must_be_a_running_client(inproc):
-    """Issue 21: an address string or a closed client was an AttributeError from deep
+    """An address string or a closed client was an AttributeError from deep
     inside; now a TypeError/ValueError naming client and what it must be."""
     scene, _, L0 = _ensemble(5)
     kw = {"L0": L0, "dt": 0.01, "steps": 10}
@@ -400,7 +395,7 @@ def test_a_client_must_be_a_running_client(inproc):
 
 
 def test_info_is_the_local_calls_with_global_body_numbers(inproc):
-    """Issue 21: bodies of other axis orderings form groups; info lists them with their
+    """Bodies of other axis orderings form groups; info lists them with their
     numbers in the whole ensemble, as the local call does (before: one info per task,
     {"tasks": [...]}, with each task's own numbers), gathered or not."""
     scene, q0, L0 = _ensemble(40)

@@ -195,17 +195,19 @@ def test_simd_supports_the_free_and_gravity_families_only():
     def spin(t, q, L):
         return np.array([0.0, 0.0, 1.0])
 
-    for only in (True, False):  # explicit kicks and implicit kicks of a user torque
+    # explicit kicks of a user torque run here (through its callback), implicit kicks not
+    for only, supported in ((True, True), (False, False)):
         user = liebody.TorqueBody(asym_body(), spin, orientation_only=only)
         plan = liebody.methods()["splitting2"].plan(user, L[0], 0.05)
-        assert not simd_supports(plan, S.TORQUE_USER)
+        assert simd_supports(plan, S.TORQUE_USER) is supported
+        assert not simd_supports(plan, S.TORQUE_NONE)  # a kick of no model
     assert set(SIMD_RUNNERS) == {(f, d) for f in SIMD_FAMILIES for d in (False, True)}
 
 
 @pytest.mark.kernel
 def test_a_plan_it_cannot_run_stops_like_the_scalar_driver():
     """A kind outside the SIMD family (here the exact flow in the axis family), or a kick
-    that is not uniform gravity: STATUS_BAD_STAGE for every body still running."""
+    of no model (an unknown model code): STATUS_BAD_STAGE for every body still running."""
     run, _ = _case_run(CASES[0], 5, 3, 1)
     p = run.plan
     p.kinds = p.kinds.copy()
@@ -218,9 +220,14 @@ def test_a_plan_it_cannot_run_stops_like_the_scalar_driver():
     top, _ = _case_run(CASES[6], 4, 3, 1)
     top.plan.params = top.plan.params.copy()
     kick = int(np.flatnonzero(top.plan.kinds == S.KICK)[0])
-    top.plan.params[2, kick, S.P_TORQUE] = S.TORQUE_USER
+    top.plan.params[2, kick, S.P_TORQUE] = S.MAX_MODEL_CODE + 1
     top.go(simd(top.plan))
     assert list(top.status) == [0, 0, S.STATUS_BAD_STAGE, 0]
+    top, _ = _case_run(CASES[6], 4, 3, 1)
+    top.plan.params = top.plan.params.copy()
+    top.plan.params[1, kick, S.P_TORQUE] = S.TORQUE_NONE
+    top.go(simd(top.plan))
+    assert list(top.status) == [0, S.STATUS_BAD_STAGE, 0, 0]
 
 
 # ------------------------------------------------------------------ agreement
@@ -514,16 +521,25 @@ def test_the_block_loops_compile_to_packed_instructions():
     import numba
 
     from liebody._kernels import batch as B
+    from liebody._models import gravity_gradient
 
     buf = np.zeros(B.N_ROWS * B.BLOCK)
     r = np.ones(B.BLOCK)
     p = np.ones((6, B.BLOCK))
+    idx = np.arange(B.BLOCK)
+    mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 12)), idx, np.zeros(1),
+          np.zeros((6, B.BLOCK)))
+    blocks = np.ones((B.BLOCK, 16))  # per-body inertia, one source
+    rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
     for fn, args in ((B._AX0F, (buf, r, 3, 0.1)), (B._AX2G, (buf, r, 3, 0.1)),
                      (B._RC1F, (buf, r, 3, 0.1)), (B._SPHERE_FAST, (buf, r, 3, 0.1)),
                      (B._SPHERE_GENERAL, (buf, r, 3, 0.1)),
                      (B._kick_block, (buf, r, r, r, 3, 0.1)), (B._dmv_block, (buf, p, 3, 0.1)),
-                     (B._diagnose_block, (buf, 3))):
+                     (B._diagnose_block, (buf, 3, mc, 0.0)),
+                     (B._project_block, (buf, 3, True, 0, r, 0.1)),
+                     (gravity_gradient.torque_block,
+                      (np.ones(4), blocks, idx, 16, buf, rows, np.zeros((6, B.BLOCK))))):
         opts = {k: v for k, v in fn.targetoptions.items() if k not in ("cache", "nopython")}
         fresh = numba.njit(**opts)(fn.py_func)
         fresh(*args)

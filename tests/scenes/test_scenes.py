@@ -185,13 +185,13 @@ def test_a_scenes_memoised_model_follows_take():
     bodies (take) derives its own."""
     tops = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass=[1.0, 2.0, 3.0],
                             cm=[0.0, 0.0, 1.0], g=1.0)
-    assert tops.batch_shape == (3,) and tops.torque_model().constants.shape == (3, 3)
+    assert tops.batch_shape == (3,) and tops.torque_model().params.shape == (3, 3)
     one = tops.take(slice(1, 2))
     assert one.batch_shape == (1,)
-    np.testing.assert_array_equal(one.torque_model().constants, [[0.0, 0.0, 2.0]])
+    np.testing.assert_array_equal(one.torque_model().params, [[0.0, 0.0, 2.0]])
     assert tops.torque_model() is tops.torque_model()
     with pytest.raises(ValueError, match="read-only"):
-        tops.torque_model().constants[0, 0] = 1.0
+        tops.torque_model().params[0, 0] = 1.0
 
 
 def test_pickled_scenes_leave_their_memos_behind():

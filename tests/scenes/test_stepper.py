@@ -1,4 +1,4 @@
-"""The Stepper as a run of integrate() (issues 20 and 21): the kernels integrate() runs
+"""The Stepper as a run of integrate(): the kernels integrate() runs
 (SIMD for ensembles), slices sized by time, Ctrl-C that keeps a consistent state,
 copies, pickling and threads.
 

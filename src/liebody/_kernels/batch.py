@@ -12,16 +12,20 @@ Families and stages
 -------------------
 * ``F_AXES`` (free asymmetric ``splitting2``, ``no_squish``, ``splitting4/6/8``): AXIS;
 * ``F_ROTATIONS`` (``sr2``, free symmetric bodies): AXIS, AXIS_RECURRING, SPHERE;
-* ``F_KICKED`` and ``F_SPLITTING`` with uniform gravity (``HeavyTop`` with the
-  splittings): the rotations and KICK with ``TORQUE_GRAVITY``;
-* ``F_DMV_FREE`` (``rattle``, ``dmv4..10`` on a free body): DMV; ``F_DMV`` (the heavy
-  top's ``rattle``): DMV and the gravity KICK.
+* ``F_KICKED`` and ``F_SPLITTING`` with explicit kicks (the splittings of every scene
+  whose torque depends on the orientation and time only): the rotations and KICK;
+* ``F_DMV_FREE`` (``rattle``, ``dmv4..10`` on a free body): DMV; ``F_DMV`` (``rattle``
+  with kicks): DMV and KICK.
 
-The clock (``t0``, ``step0``, ``clock``) and ``torque_addr`` are accepted and unused:
-none of these stages reads the time or calls a user torque.
+A kick of uniform gravity is one vectorised loop over the block; any other model's
+kick (the gravity gradient, a user torque through its callback) is evaluated lane by
+lane through the one dispatch on model codes (``liebody._models.dispatch``) at the
+stage's clock time (``t0``, ``step0``, ``clock``, as in the scalar driver), so a new
+model runs here without an edit to these kernels. The running diagnostics evaluate the
+model's potential likewise.
 
-Everything else (KICK_IMPLICIT, DAMP, user torques, the exact flow, the baselines)
-runs in the scalar drivers.
+Everything else (KICK_IMPLICIT, DAMP, the exact flow, the baselines) runs in the scalar
+drivers.
 
 Layout
 ------
@@ -133,7 +137,7 @@ from numba import types
 from numba.extending import intrinsic, overload
 
 from liebody._kernels._jit import jit, overload_options
-from liebody._kernels.flows import DMV_MAX_FIXED_POINT, dmv_step
+from liebody._kernels.flows import DMV_MAX_FIXED_POINT, LARGE_INCREMENT, dmv_step
 from liebody._kernels.stages import (
     AXIS,
     AXIS_RECURRING,
@@ -146,6 +150,7 @@ from liebody._kernels.stages import (
     F_SPLITTING,
     KICK,
     KINDS,
+    MAX_MODEL_CODE,
     P_I1,
     P_I2,
     P_I3,
@@ -158,8 +163,10 @@ from liebody._kernels.stages import (
     STATUS_OK,
     STATUS_TORQUE,
     TORQUE_GRAVITY,
+    TORQUE_NONE,
     family_tag,
 )
+from liebody._models import dispatch
 
 #: bodies per block (the length of every row of the block buffer)
 BLOCK = 128
@@ -167,6 +174,11 @@ BLOCK = 128
 CHUNK = 64
 #: a stage whose half angles all stay below this runs without range reduction
 FAST_LIMIT = 0.78
+#: a recurring rotation (AXIS_RECURRING, SPHERE) whose half angle may reach this puts ``q``
+#: back on the unit sphere after it (``_project_block``; ``flows.LARGE_INCREMENT``)
+PROJECT_HALF = math.sqrt(LARGE_INCREMENT)
+#: stage flags of a chunk (``_fast_flags``)
+FAST, PROJECT = 1, 2
 #: the fewest bodies (of a chunk) for which the SIMD drivers beat the scalar ones: one
 #: body is 10 % slower (DMV: 70 %), two break even for DMV, three win for every family
 #: (measured on AVX-512: free splitting2 43 against 74 ns/body-step at 3 bodies, 8 ns
@@ -198,7 +210,7 @@ A10, A20, A30 = R_A * BLOCK, (R_A + 1) * BLOCK, (R_A + 2) * BLOCK
 CONV0 = R_CONV * BLOCK
 
 # per-stage parameter slots of the gathered parameters (stage, slot, body)
-N_SLOTS = 6  # rotations: rate; kicks: c1, c2, c3; DMV: I1, I2, I3, f1, f2, f3
+N_SLOTS = 6  # rotations: rate; kicks: c1, c2, c3 (gravity), torque bound; DMV: I1..f3
 
 # ------------------------------------------------------------------ the supported kinds
 #: family -> the kinds its SIMD driver runs
@@ -226,22 +238,15 @@ SIMD_MEMBERS = _members()
 
 def simd_supports(plan, torque_code) -> bool:
     """Whether ``plan`` (a :class:`liebody._plan.Plan`) can run in a :data:`SIMD_RUNNERS`
-    driver: its family is one of :data:`SIMD_FAMILIES`, every stage kind is one that
-    family's SIMD driver runs, and every kick is uniform gravity (the one model with a
-    vectorised kick here)."""
+    driver: its family is one of :data:`SIMD_FAMILIES` and every stage kind is one that
+    family's SIMD driver runs (the kicks of any model)."""
     family = int(plan.family)
     if family not in SIMD_FAMILIES:
-        return False
-    if any(int(k) == KICK for k in plan.kinds) and int(torque_code) != TORQUE_GRAVITY:
         return False
     kinds = [int(k) for k in plan.kinds]
     if not kinds or any(k not in SIMD_FAMILIES[family] for k in kinds):
         return False
-    params = np.asarray(plan.params)
-    for j, k in enumerate(kinds):
-        if k == KICK and not np.all(params[:, j, P_TORQUE] == TORQUE_GRAVITY):
-            return False
-    return True
+    return not (KICK in kinds and not 0 < int(torque_code) <= MAX_MODEL_CODE)
 
 
 # ------------------------------------------------------------------ fused multiply-add
@@ -501,6 +506,46 @@ _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
 
 
+@jit
+def _project_block(buf, nb, sphere, axis, rate, tau):
+    """After a recurring rotation (``sphere``, or about ``axis``), ``q`` of every body whose
+    half angle is large (``flows.LARGE_INCREMENT``, decided per body from its own state as
+    the scalar flows decide it) back on the unit sphere: ``q (1 - delta/2)`` with
+    ``delta = |q|^2 - 1`` exact (squares split by FMA), the scalar ``quat.qproject_unit``;
+    the other bodies are left bit for bit (``k = 0``). After a large rotation that recurs
+    every step the roundings can repeat (at a step near a multiple of a half turn), and
+    ``|q|`` would drift."""
+    for i in range(nb):
+        w = buf[W0 + i]
+        x = buf[X0 + i]
+        y = buf[Y0 + i]
+        z = buf[Z0 + i]
+        a = tau * rate[i]
+        m1 = buf[M10 + i]
+        m2 = buf[M20 + i]
+        m3 = buf[M30 + i]
+        if sphere:
+            r1, r2, r3 = a * m1, a * m2, a * m3
+            big = r1 * r1 + r2 * r2 + r3 * r3 >= 4.0 * LARGE_INCREMENT
+        else:
+            half = 0.5 * a * (m1 if axis == 0 else (m2 if axis == 1 else m3))
+            big = half * half >= LARGE_INCREMENT
+        s = w * w
+        e = fma(w, w, -s)
+        for c in (x, y, z):
+            p = c * c
+            pe = fma(c, c, -p)
+            t = s + p
+            bb = t - s
+            e += ((s - (t - bb)) + (p - bb)) + pe
+            s = t
+        k = -0.5 * ((s - 1.0) + e) if big else 0.0
+        buf[W0 + i] = w + k * w
+        buf[X0 + i] = x + k * x
+        buf[Y0 + i] = y + k * y
+        buf[Z0 + i] = z + k * z
+
+
 # ------------------------------------------------------------------ kicks, DMV, diagnostics
 @jit
 def _kick_block(buf, c1r, c2r, c3r, nb, tau):
@@ -524,6 +569,28 @@ def _kick_block(buf, c1r, c2r, c3r, nb, tau):
         buf[M10 + i] = buf[M10 + i] + tau * n1
         buf[M20 + i] = buf[M20 + i] + tau * n2
         buf[M30 + i] = buf[M30 + i] + tau * n3
+
+
+@jit
+def _model_kick_block(buf, mc, j, nb, t, tau):
+    """Any model's kick ``m += tau N(t, q, m)`` over a block through the one dispatch on
+    model codes (a model's vectorised block kernel, or body by body; the scalar
+    ``_explicit_kick``'s arithmetic); a torque that is not finite flags ``STATUS_TORQUE``.
+    ``mc`` is the block's model context (see ``_run_block``)."""
+    code, addr, mpar, params, idx, scratch = mc[0], mc[2], mc[3], mc[4], mc[5], mc[6]
+    # the time-only part (the sources' positions) once for the block: models share it
+    dispatch.prepare(code, mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]], t, scratch)
+    out = mc[7]
+    dispatch.torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, buf,
+                          (W0, X0, Y0, Z0, M10, M20, M30), out)
+    for b in range(nb):
+        n1, n2, n3 = out[0, b], out[1, b], out[2, b]
+        f = buf[FAIL0 + b]
+        ok = abs(n1) + abs(n2) + abs(n3) < math.inf
+        buf[FAIL0 + b] = f if (f != 0.0 or ok) else float(STATUS_TORQUE)
+        buf[M10 + b] = buf[M10 + b] + tau * n1
+        buf[M20 + b] = buf[M20 + b] + tau * n2
+        buf[M30 + b] = buf[M30 + b] + tau * n3
 
 
 @jit(inline="always")
@@ -662,8 +729,22 @@ def _dmv_block(buf, p, nb, tau):
 
 
 @jit
-def _diagnose_block(buf, nb):
-    """``driver._diagnose`` for every body of a block (rows ``R_D``, references ``R_DREF``)."""
+def _diagnose_block(buf, nb, mc, t):
+    """``driver._diagnose`` for every body of a block (rows ``R_D``, references ``R_DREF``)
+    at time ``t``: uniform gravity's potential vectorised (its weight arm in the reference
+    rows 3..5, zero without a potential), any other model's lane by lane."""
+    dcode, mpar, idx = mc[1], mc[3], mc[5]
+    mshared = mpar.shape[0] == 1
+    # another model's potential first, lane by lane, into the torque rows (free here);
+    # the loop below then stays branch-free and vectorised
+    vm = mc[7][0]
+    if dcode == TORQUE_NONE or dcode == TORQUE_GRAVITY:
+        for i in range(nb):
+            vm[i] = 0.0
+    else:
+        for i in range(nb):
+            vm[i] = dispatch.potential(dcode, mpar[0] if mshared else mpar[idx[i]], t,
+                                       buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i])
     for i in range(nb):
         w = buf[W0 + i]
         x = buf[X0 + i]
@@ -678,6 +759,7 @@ def _diagnose_block(buf, nb):
         V = (buf[REF0 + 3 * BLOCK + i] * 2.0 * (x * z - w * y)
              + buf[REF0 + 4 * BLOCK + i] * 2.0 * (y * z + w * x)
              + buf[REF0 + 5 * BLOCK + i] * (w * w - x * x - y * y + z * z)) / n2
+        V = V + vm[i]  # (exactly V for gravity, exactly the model's otherwise)
         e = abs(T + V - buf[REF0 + 6 * BLOCK + i]) * buf[REF0 + 7 * BLOCK + i]
         qe = abs(math.sqrt(n2) - 1.0)
         le = (abs(math.sqrt(m1 * m1 + m2 * m2 + m3 * m3) - buf[REF0 + 8 * BLOCK + i])
@@ -692,20 +774,32 @@ def _diagnose_block(buf, nb):
 
 # ------------------------------------------------------------------ one step of a block
 @jit(inline="always")
-def _apply(family, kind, axis, fast, buf, p, nb, tau):
-    """Stage of kind ``kind`` for time ``tau`` on a block (``p``: its parameter rows)."""
+def _kick(buf, p, mc, j, nb, t, tau):
+    """A kick: uniform gravity vectorised, any other model lane by lane."""
+    if mc[0] == TORQUE_GRAVITY:
+        _kick_block(buf, p[0], p[1], p[2], nb, tau)
+    else:
+        _model_kick_block(buf, mc, j, nb, t, tau)
+
+
+@jit(inline="always")
+def _apply(family, kind, axis, fast, buf, p, nb, tau, mc, j, t):
+    """Stage ``j`` of kind ``kind`` for time ``tau`` on a block (``p``: its parameter rows)
+    at time ``t``; ``fast``: the stage's flags (``FAST``: no range reduction needed;
+    ``PROJECT``: a large recurring rotation, after which ``q`` is put back on the unit
+    sphere)."""
     if family == F_DMV or family == F_DMV_FREE:
         if kind == DMV:
             _dmv_block(buf, p, nb, tau)
         else:
-            _kick_block(buf, p[0], p[1], p[2], nb, tau)
+            _kick(buf, p, mc, j, nb, t, tau)
         return
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
-        _kick_block(buf, p[0], p[1], p[2], nb, tau)
+        _kick(buf, p, mc, j, nb, t, tau)
         return
     rate = p[0]
     if family == F_AXES or kind == AXIS:
-        if fast:
+        if fast & FAST:
             if axis == 0:
                 _AX0F(buf, rate, nb, tau)
             elif axis == 1:
@@ -719,7 +813,7 @@ def _apply(family, kind, axis, fast, buf, p, nb, tau):
         else:
             _AX2G(buf, rate, nb, tau)
     elif kind == AXIS_RECURRING:
-        if fast:
+        if fast & FAST:
             if axis == 0:
                 _RC0F(buf, rate, nb, tau)
             elif axis == 1:
@@ -732,30 +826,37 @@ def _apply(family, kind, axis, fast, buf, p, nb, tau):
             _RC1G(buf, rate, nb, tau)
         else:
             _RC2G(buf, rate, nb, tau)
-    elif fast:
+    elif fast & FAST:
         _SPHERE_FAST(buf, rate, nb, tau)
     else:
         _SPHERE_GENERAL(buf, rate, nb, tau)
+    if fast & PROJECT:
+        _project_block(buf, nb, kind == SPHERE, axis, rate, tau)
 
 
 @jit(inline="always")
 def _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h, buf, nb, pending,
-          save_now):
-    """One step of the block (the scalar loop's stage sequence); returns ``pending``."""
+          save_now, mc, clock, t, t_end):
+    """One step of the block (the scalar loop's stage sequence, its clock included) from
+    time ``t`` to ``t_end``; returns ``pending``."""
     ns = kinds.shape[0]
     last = ns - 1
-    j0 = 1 if pending else 0
+    j0 = 0
+    if pending:
+        j0 = 1
+        t += clock[0] * h
     for j in range(j0, last):
-        _apply(family, kinds[j], axes[j], fast[j], buf, par[j], nb, coefs[j] * h)
+        _apply(family, kinds[j], axes[j], fast[j], buf, par[j], nb, coefs[j] * h, mc, j, t)
+        t += clock[j] * h
     if ns > 1 and merge_ends and not save_now:
         tau = (coefs[last] + coefs[0]) * h
         pending = True
     else:
         tau = coefs[last] * h
         pending = False
-    _apply(family, kinds[last], axes[last], fast[last], buf, par[last], nb, tau)
+    _apply(family, kinds[last], axes[last], fast[last], buf, par[last], nb, tau, mc, last, t)
     if diag:
-        _diagnose_block(buf, nb)
+        _diagnose_block(buf, nb, mc, t_end)
     return pending
 
 
@@ -772,7 +873,8 @@ def _copy_rows(buf, src, dst, rows, nb):
 def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
     """Per stage, whether every half angle stays below :data:`FAST_LIMIT` for ``steps``
     steps: ``|half| <= |tau| |rate| |m| / 2`` with ``|m|`` kept by the rotations and
-    grown by at most ``sum |tau_kick| |c| |q|^2`` per step by the gravity kicks."""
+    grown by at most ``sum |tau_kick| B |q|^2`` per step by the kicks, ``B`` the model's
+    torque bound (``dispatch.torque_bound``; inf for a user torque: never fast)."""
     ns = kinds.shape[0]
     kick_h = 0.0
     for j in range(ns):
@@ -787,13 +889,12 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
             cmax = 0.0
             for j in range(ns):
                 if kinds[j] == KICK:
-                    c = math.sqrt(par[j, 0, i] ** 2 + par[j, 1, i] ** 2 + par[j, 2, i] ** 2)
-                    cmax = max(cmax, c)
+                    cmax = max(cmax, par[j, 3, i])  # the model's torque bound
             bound += steps * kick_h * cmax * q2 * 1.001
         buf[R_BOUND * BLOCK + i] = bound * (1.0 + 1e-6) if alive[i] else 0.0
     last = ns - 1
     for j in range(ns):
-        fast[j] = False
+        fast[j] = 0
         if kinds[j] == KICK or kinds[j] == DMV:
             continue
         tau = abs(coefs[j]) * abs(h)
@@ -803,8 +904,11 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
         for i in range(nb):
             v = abs(par[j, 0, i]) * buf[R_BOUND * BLOCK + i]
             worst = v if v > worst else worst
-        worst = worst if worst == worst else math.inf  # NaN: not fast
-        fast[j] = 0.5 * tau * worst <= FAST_LIMIT
+        worst = worst if worst == worst else math.inf  # NaN (0 * inf too): not fast
+        half = 0.5 * tau * worst
+        fast[j] = FAST if half <= FAST_LIMIT else 0
+        if (kinds[j] == AXIS_RECURRING or kinds[j] == SPHERE) and not half < PROJECT_HALF:
+            fast[j] |= PROJECT
 
 
 # ------------------------------------------------------------------ the drivers
@@ -813,10 +917,11 @@ def _gather(kinds, params, mpar, idx, nb, par):
     """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a gravity
     kick's from the model's parameter blocks ``mpar``, shared or per body)."""
     shared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
     for j in range(kinds.shape[0]):
         k = kinds[j]
         for b in range(nb):
-            row = params[idx[b], j]
+            row = params[0 if pshared else idx[b], j]
             mrow = mpar[0] if shared else mpar[idx[b]]
             if k == DMV:
                 I1, I2, I3 = row[P_I1], row[P_I2], row[P_I3]
@@ -825,15 +930,18 @@ def _gather(kinds, params, mpar, idx, nb, par):
                 par[j, 4, b] = (I3 - I1) / I2
                 par[j, 5, b] = (I1 - I2) / I3
             elif k == KICK:
-                par[j, 0, b], par[j, 1, b], par[j, 2, b] = mrow[0], mrow[1], mrow[2]
+                code = int(row[P_TORQUE])
+                if code == TORQUE_GRAVITY:
+                    par[j, 0, b], par[j, 1, b], par[j, 2, b] = mrow[0], mrow[1], mrow[2]
+                par[j, 3, b] = dispatch.torque_bound(code, mrow)
             else:
                 par[j, 0, b] = row[P_RATE]
 
 
 @jit
-def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps, save_every,
-               final, state, ctl, q_out, m_out, saved, done, status, mpar, dref, dmax, idx,
-               nb, buf, par, fast, alive):
+def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t0, step0,
+               n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
+               torque_addr, mpar, dref, dmax, idx, nb, buf, par, fast, alive):
     """Run ``n_steps`` steps of the ``nb`` bodies ``idx[:nb]`` (same ``ctl``).
 
     ``family`` and ``diag`` are run-time values here (the drivers pass them as plain
@@ -858,6 +966,17 @@ def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps,
             for r in range(3):
                 buf[(R_DREF + 3 + r) * BLOCK + b] = mrow[r] if gravity else 0.0
     _gather(kinds, params, mpar, idx, nb, par)
+    # the model context of the kicks and diagnostics: (kick model code, potential code of
+    # the diagnostics, user callback address, model blocks, stage rows, body indices,
+    # scratch for the time-only part of the torque, the block's torques and work rows)
+    mcode = 0
+    for j in range(kinds.shape[0]):
+        if kinds[j] == KICK:
+            mcode = int(params[0 if params.shape[0] == 1 else idx[0], j, P_TORQUE])
+    dcode = int(dref[idx[0], 3]) if diag else 0
+    mrow = mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]]
+    scratch = np.empty(dispatch.scratch_size(mcode, mrow))
+    mc = (mcode, dcode, torque_addr, mpar, params, idx, scratch, np.empty((6, BLOCK)))
     until_save = ctl[idx[0], 0]
     pending = ctl[idx[0], 1] != 0
     n_saved = 0
@@ -881,8 +1000,9 @@ def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps,
         for s in range(step, step + t):
             until_save -= 1
             save_now = until_save == 0 or (final and s == n_steps - 1)
+            ts = t0 + (step0 + s) * h
             pending = _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h, buf,
-                            nb, pending, save_now)
+                            nb, pending, save_now, mc, clock, ts, t0 + (step0 + s + 1) * h)
         suspect = False
         for b in range(nb):
             if alive[b]:
@@ -904,8 +1024,10 @@ def _run_block(family, diag, kinds, axes, coefs, params, merge_ends, h, n_steps,
                     _copy_rows(buf, R_D, R_DSK, 3, nb)
                 until_save -= 1
                 save_now = until_save == 0 or (final and s == n_steps - 1)
+                ts = t0 + (step0 + s) * h
                 pending = _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h,
-                                buf, nb, pending, save_now)
+                                buf, nb, pending, save_now, mc, clock, ts,
+                                t0 + (step0 + s + 1) * h)
                 for b in range(nb):
                     if not alive[b]:
                         continue
@@ -978,8 +1100,9 @@ def _simd_runner(family: int, diag: bool = False):
             if bad:
                 status[i] = STATUS_BAD_STAGE
                 continue
-            for j in range(ns):
-                if kinds[j] == KICK and params[i, j, P_TORQUE] != TORQUE_GRAVITY:
+            for j in range(ns):  # a kick of no model, or an unknown one
+                code = params[0 if params.shape[0] == 1 else i, j, P_TORQUE]
+                if kinds[j] == KICK and not (0 < code <= MAX_MODEL_CODE):
                     status[i] = STATUS_BAD_STAGE
         if bad or n_steps <= 0:
             return 0
@@ -987,7 +1110,7 @@ def _simd_runner(family: int, diag: bool = False):
         par = np.zeros((ns, N_SLOTS, BLOCK))
         idx = np.empty(BLOCK, dtype=np.int64)
         alive = np.zeros(BLOCK, dtype=np.bool_)
-        fast = np.zeros(ns, dtype=np.bool_)
+        fast = np.zeros(ns, dtype=np.int64)
         i = 0
         while i < n:
             nb = 0
@@ -1005,10 +1128,10 @@ def _simd_runner(family: int, diag: bool = False):
                 nb += 1
                 i += 1
             if nb > 0:  # family, diag as plain values: one compilation for all drivers
-                _run_block(np.int64(family), np.bool_(diag), kinds, axes, coefs, params,
-                           merge_ends, h, n_steps, save_every, final, state, ctl, q_out, m_out,
-                           saved, done, status, mpar, dref, dmax, idx, nb, buf, par, fast,
-                           alive)
+                _run_block(np.int64(family), np.bool_(diag), kinds, axes, coefs, clock,
+                           params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
+                           ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
+                           dmax, idx, nb, buf, par, fast, alive)
         return 0
 
     return run

@@ -22,17 +22,23 @@ import math
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import (
     component,
+    increment_defect,
     qaxis_rotation,
     qexp,
     qexp_increment,
     qmul,
     qmul_increment,
+    qproject_unit,
     qrotate_inv,
     qunit_increment,
 )
 from liebody._kernels.stages import P_EPS, P_I1, P_I2, P_I3, P_TORQUE, TORQUE_NONE
 from liebody._kernels.torque import damping_rate, torque_value
 
+#: a recurring rotation whose squared half angle is at least this keeps ``q`` on the unit
+#: sphere (``qproject_unit``; below, the increment form's norm error, of order
+#: ``eps sin^2``, is at most 2e-21 per step)
+LARGE_INCREMENT = 1e-5
 #: DMV iteration limits
 DMV_MAX_FIXED_POINT = 60
 DMV_MAX_NEWTON = 30
@@ -81,15 +87,33 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     cm2 = -s2 * s2 / (1.0 + c2) if c2 > 0.0 else c2 - 1.0
     cm = -2.0 * s2 * s2  # cos(2 half) - 1
     s = 2.0 * s2 * c2
+    if half * half < LARGE_INCREMENT:
+        if axis == 0:
+            m2, m3 = m2 + (cm * m2 + s * m3), m3 + (cm * m3 - s * m2)
+            w, x, y, z = qmul_increment(w, x, y, z, cm2, s2, 0.0, 0.0)
+        elif axis == 1:
+            m3, m1 = m3 + (cm * m3 + s * m1), m1 + (cm * m1 - s * m3)
+            w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, s2, 0.0)
+        else:
+            m1, m2 = m1 + (cm * m1 + s * m2), m2 + (cm * m2 - s * m1)
+            w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, 0.0, s2)
+        return w, x, y, z, m1, m2, m3
+    # a large angle: the m-rotation's pair has a norm error of order eps (removed, to far
+    # below round-off), and q is kept on the unit sphere (qproject_unit)
+    k = -0.5 * increment_defect(cm, s, 0.0, 0.0)
     if axis == 0:
-        m2, m3 = m2 + (cm * m2 + s * m3), m3 + (cm * m3 - s * m2)
+        u2, u3 = cm * m2 + s * m3, cm * m3 - s * m2
+        m2, m3 = m2 + (u2 + k * (m2 + u2)), m3 + (u3 + k * (m3 + u3))
         w, x, y, z = qmul_increment(w, x, y, z, cm2, s2, 0.0, 0.0)
     elif axis == 1:
-        m3, m1 = m3 + (cm * m3 + s * m1), m1 + (cm * m1 - s * m3)
+        u3, u1 = cm * m3 + s * m1, cm * m1 - s * m3
+        m3, m1 = m3 + (u3 + k * (m3 + u3)), m1 + (u1 + k * (m1 + u1))
         w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, s2, 0.0)
     else:
-        m1, m2 = m1 + (cm * m1 + s * m2), m2 + (cm * m2 - s * m1)
+        u1, u2 = cm * m1 + s * m2, cm * m2 - s * m1
+        m1, m2 = m1 + (u1 + k * (m1 + u1)), m2 + (u2 + k * (m2 + u2))
         w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, 0.0, s2)
+    w, x, y, z = qproject_unit(w, x, y, z)
     return w, x, y, z, m1, m2, m3
 
 
@@ -104,8 +128,11 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     ``|q|`` from the rounding of ``cos`` near 1.
     """
     a = tau * rate
-    cm, vx, vy, vz = qexp_increment(a * m1, a * m2, a * m3)
+    r1, r2, r3 = a * m1, a * m2, a * m3
+    cm, vx, vy, vz = qexp_increment(r1, r2, r3)
     w, x, y, z = qmul_increment(w, x, y, z, cm, vx, vy, vz)
+    if r1 * r1 + r2 * r2 + r3 * r3 >= 4.0 * LARGE_INCREMENT:  # a large angle: qproject_unit
+        w, x, y, z = qproject_unit(w, x, y, z)
     return w, x, y, z, m1, m2, m3
 
 

@@ -65,6 +65,8 @@ TORQUE_NONE = 0
 TORQUE_GRAVITY = 1  # uniform gravity (liebody._models.uniform_gravity)
 TORQUE_USER = 2  # the user's callback (liebody._models.user_torque)
 TORQUE_GRAVITY_GRADIENT = 3  # point masses on orbits (liebody._models.gravity_gradient)
+#: the largest model code (every code from 1 to it names a model)
+MAX_MODEL_CODE = TORQUE_GRAVITY_GRADIENT
 
 # ------------------------------------------------------------------------- driver status
 STATUS_OK = 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from liebody._kernels._jit import jit
 from liebody._models import gravity_gradient, uniform_gravity, user_torque
 
@@ -18,6 +20,53 @@ def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
     if code == user_torque.CODE:
         return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
     return 0.0, 0.0, 0.0
+
+
+@jit
+def scratch_size(code, mp):
+    """Numbers :func:`prepare` writes for model ``code``."""
+    if code == gravity_gradient.CODE:
+        return 4 * int(mp[3])
+    return 1
+
+
+@jit
+def prepare(code, mp, t, scratch):
+    """The time-only part of model ``code``'s torque at ``t`` into ``scratch``, shared by
+    every body of a block (the SIMD drivers call it once per kick and block)."""
+    if code == gravity_gradient.CODE:
+        gravity_gradient.prepare(t, mp, scratch)
+
+
+@jit
+def torque_prepared(code, mp, scratch, p, addr, t, w, x, y, z, m1, m2, m3):
+    """:func:`torque` after :func:`prepare` (the same numbers, bit for bit)."""
+    if code == uniform_gravity.CODE:
+        return uniform_gravity.torque(t, w, x, y, z, mp)
+    if code == gravity_gradient.CODE:
+        return gravity_gradient.torque_prepared(scratch, w, x, y, z, mp)
+    if code == user_torque.CODE:
+        return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
+    return 0.0, 0.0, 0.0
+
+
+@jit
+def torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, state, rows, out):
+    """:func:`torque_prepared` for the ``nb`` bodies ``idx`` of a SIMD block: body ``b``'s
+    ``w, x, y, z, m1, m2, m3`` at ``state[rows[k] + b]``, its torque into ``out[0..2, b]``.
+    A model with a vectorised block kernel runs it; any other is evaluated body by body
+    (``params[i, j]``: body ``i``'s row of stage ``j``, ``(1, s, P)`` when shared)."""
+    if code == gravity_gradient.CODE:
+        gravity_gradient.torque_block(scratch, mpar, idx, nb, state, rows, out)
+        return
+    mshared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
+    for b in range(nb):
+        i = idx[b]
+        out[0, b], out[1, b], out[2, b] = torque_prepared(
+            code, mpar[0] if mshared else mpar[i], scratch, params[0 if pshared else i, j],
+            addr, t, state[rows[0] + b], state[rows[1] + b], state[rows[2] + b],
+            state[rows[3] + b], state[rows[4] + b], state[rows[5] + b], state[rows[6] + b])
 
 
 @jit
@@ -40,3 +89,17 @@ def potentials(code, mp, t, q, out):
     for i in range(q.shape[0]):
         out[i] = potential(code, mp[i if rows > 1 else 0], t[i], q[i, 0], q[i, 1], q[i, 2],
                            q[i, 3])
+
+
+@jit
+def torque_bound(code, mp):
+    """A bound on ``|torque|`` at unit ``|q|`` over every orientation and time (for the
+    SIMD drivers' fast path: how far the kicks can grow ``|m|``); inf where none is known
+    (a user torque)."""
+    if code == uniform_gravity.CODE:
+        return uniform_gravity.torque_bound(mp)
+    if code == gravity_gradient.CODE:
+        return gravity_gradient.torque_bound(mp)
+    if code == user_torque.CODE:
+        return math.inf
+    return 0.0

@@ -8,6 +8,8 @@ conservative.
 
 from __future__ import annotations
 
+import math
+
 from liebody._kernels._jit import jit
 from liebody._kernels.stages import TORQUE_GRAVITY
 
@@ -45,3 +47,9 @@ def potential(t, w, x, y, z, mp):
     n2 = w * w + x * x + y * y + z * z
     return (mp[0] * 2.0 * (x * z - w * y) + mp[1] * 2.0 * (y * z + w * x)
             + mp[2] * (w * w - x * x - y * y + z * z)) / n2
+
+
+@jit
+def torque_bound(mp):
+    """``|Gamma x c| <= |c|`` for unit ``q`` (``|Gamma| = |q|^2``)."""
+    return math.sqrt(mp[0] * mp[0] + mp[1] * mp[1] + mp[2] * mp[2])

@@ -1,0 +1,371 @@
+"""The run engine's shared pieces: slicing, the kernels' argument lists, controls, running
+diagnostics, the end-of-run invariant check and the reports of a failing torque.
+
+:func:`liebody.integrate` (``_integrate``), ensembles (``_ensemble``), the
+:class:`liebody.Stepper` (``_stepper``) and ``liebody.distributed`` use these, so that
+they run the kernels the same way; this module imports none of them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import warnings
+
+import numpy as np
+
+from liebody._kernels import stages as S
+from liebody.errors import InvariantWarning, TorqueError
+from liebody.trajectory import Trajectory
+
+#: wall time a slice of the run aims at: Ctrl-C is seen between slices
+SLICE_SECONDS = 0.2
+#: steps (or samples) in the first slice of a run; later slices are sized by the clock
+FIRST_SLICE = 4096
+
+#: tolerances of the end-of-run check (InvariantWarning)
+QNORM_TOL = 1e-6  # | |q| - 1 |, any method
+CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
+ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
+
+#: a failing body's status, in words
+REASONS = {S.STATUS_NONFINITE: "non-finite state",
+           S.STATUS_NO_CONVERGENCE: "DMV equation not solved",
+           S.STATUS_KICK_NO_CONVERGENCE: "implicit kick not solved",
+           S.STATUS_TORQUE: "torque failed"}
+
+
+def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
+                  ctl, q_out, m_out, torque_addr, dref, dmax) -> tuple:
+    """The argument list of a one-body driver (``driver.RUNNERS``), in its order: the
+    plan's stage table with ``params`` (the plan's, or a copy holding controls), the
+    clock, the slice, the state and outputs, the user callback, the model's parameter
+    block and the diagnostics' arrays."""
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
+            n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.model[0],
+            dref, dmax)
+
+
+def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
+               ctl, q_out, m_out, saved, done, status, torque_addr, rows, dref, dmax) -> tuple:
+    """The argument list of a batch or SIMD driver (``driver.BATCH_RUNNERS``,
+    ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group."""
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
+            n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
+            torque_addr, plan.model_rows(rows), dref, dmax)
+
+
+def resolve_threads(threads) -> int:
+    """``threads=None``: every core; else a positive integer."""
+    if threads is None:
+        return os.cpu_count() or 1
+    if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
+        raise ValueError(f"threads must be a positive integer or None (every core), "
+                         f"got {threads!r}")
+    return int(threads)
+
+
+def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> str | None:
+    """The warning of an ensemble some of whose bodies failed (``None`` if none did): how
+    many, why, and one body of each kind with its time."""
+    bad = [i for i, s in enumerate(status) if str(s).startswith("failed")]
+    if not bad:
+        return None
+    kinds: dict[str, list[int]] = {}
+    for i in bad:
+        kinds.setdefault(str(status[i])[8:] or "failed", []).append(i)
+    words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
+                      for k, v in kinds.items())
+    return (f"{method}: {len(bad)} of {len(status)} bodies failed: {words}; their samples "
+            f"stop there (NaN after; Trajectory.failed_at and Trajectory.status per body), "
+            f"the others finished")
+
+
+def failure_summary(method: str, status, failed_at, dt: float, model=None, states=None,
+                    u=None) -> str | None:
+    """:func:`failure_message`, and for a torque that failed the first such body's own
+    words (the exception's type and message, or its non-finite values), from the records:
+    ``states`` ``(N, 7)`` the bodies' last good states, ``u`` the controls (``(k,)`` or
+    ``(N, k)``), ``failed_at`` the end of each failing step."""
+    message = failure_message(method, status, failed_at)
+    if not message or model is None or model.function is None or states is None:
+        return message
+    bad = [i for i, s in enumerate(status) if str(s) == "failed: " + REASONS[S.STATUS_TORQUE]]
+    if not bad:
+        return message
+    i = bad[0]
+    ui = None if u is None else (u if np.ndim(u) == 1 else u[i])
+    return message + f". Body {i}: " + torque_failure_words(
+        model, states[i], float(failed_at[i]) - dt, dt, ui, i)
+
+
+def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE):
+    """Sizes of consecutive slices covering ``total`` units, each aiming at
+    :data:`SLICE_SECONDS` of wall time (the first, of ``first`` units, measures the rate).
+
+    A run is cut into such slices so that Ctrl-C, which Python sees only between calls
+    into compiled code, stops it within about a second; ``progress`` shows a tqdm bar.
+    """
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, unit=unit, unit_scale=True)
+    done, size = 0, max(1, first)
+    try:
+        while done < total:
+            n = min(size, total - done)
+            start = time.perf_counter()
+            yield n
+            done += n
+            if bar is not None:
+                bar.update(n)
+            rate = n / max(time.perf_counter() - start, 1e-6)
+            size = int(min(max(rate * SLICE_SECONDS, 1), 16 * size))
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def write_controls(params: np.ndarray, u: np.ndarray) -> None:
+    """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, s, P)``)
+    in the control slots of every stage's parameters (the stages that do not call the
+    torque ignore them)."""
+    k = u.shape[-1]
+    if u.ndim == 2:
+        params[..., S.P_U0:S.P_U0 + k] = u[:, None, :]
+    else:
+        params[..., S.P_U0:S.P_U0 + k] = u
+
+
+def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float = 0.0
+                         ) -> np.ndarray:
+    """The kernel's reference values for the running diagnostics, ``(N, 10)``:
+    ``1/I``, the torque model's code, 0, 0, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``
+    (``E0`` NaN where the kernels cannot follow the energy: a user's Python potential,
+    a potential that depends on the time)."""
+    from liebody._models.dispatch import potentials
+
+    q0, m0 = np.atleast_2d(q0), np.atleast_2d(m0)
+    n = q0.shape[0]
+    inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
+    T0 = 0.5 * np.sum(m0 * m0 * inv, axis=1)
+    V0 = np.zeros(n)
+    potentials(model.code, model.params, np.full(n, float(t0)), np.ascontiguousarray(q0), V0)
+    code = np.full(n, float(model.code))
+    if model.code == S.TORQUE_USER:  # a Python potential, which the kernels cannot call
+        code[:] = S.TORQUE_NONE  # (without one, the energy error is the change of T)
+        V0[:] = np.nan if scene.capabilities.conservative else 0.0
+    if model.time_dependent:
+        V0[:] = np.nan
+    g = np.linalg.norm(m0, axis=1)
+    zero = np.zeros(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ref = np.column_stack([inv, code, zero, zero, T0 + V0, 1.0 / (T0 + np.abs(V0)), g,
+                               1.0 / g])
+    return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
+
+
+def diagnostics_dict(dmax: np.ndarray, one: bool, dref: np.ndarray) -> dict:
+    """``Trajectory.diagnostics`` from the kernel's running maxima ``(N, 3)``; the energy
+    error is NaN where the reference energy is (a user torque's potential, which the
+    kernel cannot evaluate: its running maximum never moved from 0)."""
+    dmax = np.array(dmax, dtype=float)
+    dmax[np.isnan(np.atleast_2d(dref)[:, 6]), 0] = np.nan
+    keys = ("max_energy_error", "max_qnorm_error", "max_casimir_error")
+    return {k: (float(dmax[0, i]) if one else dmax[:, i].copy()) for i, k in enumerate(keys)}
+
+
+def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The running diagnostics of the kernels (``driver._diagnose``) over saved samples of
+    the exact free flow (no potential): ``dref`` ``(N, 10)``, ``q`` ``(N, n, 4)``, ``m``
+    ``(N, n, 3)`` -> ``(N, 3)``."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    n2 = w * w + x * x + y * y + z * z
+    d = dref[:, None, :]
+    T = 0.5 * np.sum(m * m * d[..., :3], axis=-1)
+    e = np.abs(T - d[..., 6]) * d[..., 7]
+    qe = np.abs(np.sqrt(n2) - 1.0)
+    le = np.abs(np.linalg.norm(m, axis=-1) - d[..., 8]) * d[..., 9]
+    return np.stack([np.max(e, axis=1), np.max(qe, axis=1), np.max(le, axis=1)], axis=1)
+
+
+def warn_invariants(traj: Trajectory, stacklevel: int) -> Trajectory:
+    """Warn when an invariant the method should keep left its tolerance by the end."""
+    try:
+        problems = _invariant_problems(traj)
+    except Exception as exc:  # a user's potential that fails: never lose the trajectory
+        warnings.warn(f"{traj.method.name}: the end-of-run invariant check failed "
+                      f"({type(exc).__name__}: {exc}); the trajectory is returned unchecked",
+                      InvariantWarning, stacklevel=stacklevel)
+        return traj
+    if problems:
+        warnings.warn(f"{traj.method.name}: " + "; ".join(problems)
+                      + " (the step may be too large for this scene, or the method does "
+                        "not keep this invariant)", InvariantWarning, stacklevel=stacklevel)
+    return traj
+
+
+def _invariant_problems(traj: Trajectory) -> list[str]:
+    """The invariants of ``traj`` that left their tolerance between its first and last
+    sample, in words (empty for a healthy run). For an ensemble, per body: the words say
+    how many bodies and give one (failed bodies are left out: they warned already)."""
+    if traj.q.ndim == 2:
+        return _one_body_problems(traj)
+    method, scene = traj.method, traj.scene
+    caps = scene.capabilities
+    ens = traj.q.ndim == 3
+    q = traj.q if ens else traj.q[None]
+    L = traj.L if ens else traj.L[None]
+    ok = np.isfinite(q[:, -1]).all(axis=1) & np.isfinite(L[:, -1]).all(axis=1)
+    moments = np.broadcast_to(np.asarray(scene.moments, dtype=float), (q.shape[0], 3))
+    out = []
+
+    def report(bad, words):
+        bad = bad & ok
+        if bad.any():
+            i = int(np.argmax(bad))
+            who = f"{int(bad.sum())} of {len(bad)} bodies (e.g. body {i}): " if ens else ""
+            out.append(who + words(i))
+
+    qn = np.linalg.norm(q[:, -1], axis=1)
+    report(~(np.abs(qn - 1.0) <= QNORM_TOL),
+           lambda i: f"|q| = {qn[i]:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    if method.keeps_casimir and not caps.torque:
+        g0, g1 = np.linalg.norm(L[:, 0], axis=1), np.linalg.norm(L[:, -1], axis=1)
+        report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
+               lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
+                         f"{CASIMIR_TOL:g} relative")
+    T0 = 0.5 * np.sum(L[:, 0] ** 2 / moments, axis=1)
+    T1 = 0.5 * np.sum(L[:, -1] ** 2 / moments, axis=1)
+    if (method.symplectic or method.keeps_energy) and caps.conservative:
+        ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (N, 2, 4)
+        ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
+        V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[..., None]))
+        V = np.broadcast_to(V, ends.shape[:2])
+        e0, e1 = T0 + V[:, 0], T1 + V[:, 1]
+        scale = T0 + np.abs(V[:, 0])
+        report((scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
+               lambda i: f"the energy went from {e0[i]:.6g} to {e1[i]:.6g}, more than "
+                         f"{ENERGY_TOL:.0%} of its scale {scale[i]:.3g}")
+    if caps.dissipative and not caps.torque and method.keeps_casimir:  # (a torque may add)
+        report(T1 > T0 * (1.0 + 1e-9),
+               lambda i: f"the energy grew from {T0[i]:.6g} to {T1[i]:.6g} in a dissipative "
+                         f"scene")
+    return out
+
+
+def _one_body_problems(traj: Trajectory) -> list[str]:
+    """:func:`_invariant_problems` for one body, in scalar arithmetic (a few
+    microseconds: this check runs at the end of every call)."""
+    method, scene = traj.method, traj.scene
+    caps = scene.capabilities
+    q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
+    L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
+    if not all(map(math.isfinite, q1 + L1)):
+        return []  # failed: warned already
+    out = []
+    qn = math.hypot(*q1)
+    if not abs(qn - 1.0) <= QNORM_TOL:
+        out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    if method.keeps_casimir and not caps.torque:
+        g0, g1 = math.hypot(*L0), math.hypot(*L1)
+        if not abs(g1 - g0) <= CASIMIR_TOL * g0:
+            out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
+                       f"relative")
+    I1, I2, I3 = scene.moments.tolist()
+    T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)
+    T1 = 0.5 * (L1[0] * L1[0] / I1 + L1[1] * L1[1] / I2 + L1[2] * L1[2] / I3)
+    if (method.symplectic or method.keeps_energy) and caps.conservative:
+        V0 = V1 = 0.0
+        if caps.torque:
+            V0, V1 = _end_potentials(scene, q0, q1, float(traj.t[0]), float(traj.t[-1]))
+        e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
+        if not (math.isfinite(V0) and math.isfinite(V1)):
+            out.append(f"the potential is not finite (V = {V0:.6g} at the start, {V1:.6g} at "
+                       f"the end), so the energy could not be checked")
+        elif scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
+            out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
+                       f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
+    if (caps.dissipative and not caps.torque and method.keeps_casimir
+            and T1 > T0 * (1.0 + 1e-9)):
+        out.append(f"the energy grew from {T0:.6g} to {T1:.6g} in a dissipative scene")
+    return out
+
+
+def _end_potentials(scene, q0: list, q1: list, t0: float = 0.0, t1: float = 0.0
+                    ) -> tuple[float, float]:
+    """The scene's potential at the first and last orientation (normalised) and times."""
+    model = scene.torque_model()
+    if model.code != S.TORQUE_USER:  # a model's kernel: a few microseconds
+        from liebody._models.dispatch import potentials
+
+        V = np.zeros(2)
+        potentials(model.code, model.params, np.array([t0, t1]), np.array([q0, q1]), V)
+        return float(V[0]), float(V[1])
+    ends = np.array([q0, q1])
+    V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[:, None]))
+    return float(V[0]), float(V[1])
+
+
+def _torque_is_finite(model, state, times, u=None, i: int = 0) -> bool:
+    """Whether the user torque gives three finite numbers at ``state`` for every time."""
+    return all(torque_failure(model, state, t, u, i)[1] is None for t in times)
+
+
+def torque_failure(model, state, t, u=None, i: int = 0):
+    """What is wrong with body ``i``'s user torque at ``state`` and time ``t``:
+    ``(exception or None, words)``, ``words`` None when it gives three finite numbers."""
+    sig = model.signature
+    q, m = state[:4], state[4:]
+    try:
+        value = np.asarray(model(t, q, m, u, i), dtype=float)
+    except Exception as exc:
+        return exc, f"the torque {sig} raised {type(exc).__name__} ({exc})"
+    if value.shape != (3,):
+        return None, f"the torque {sig} returned shape {value.shape}, not 3 numbers,"
+    if not np.all(np.isfinite(value)):
+        return None, f"the torque {sig} returned non-finite values {value.tolist()}"
+    return None, None
+
+
+def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0):
+    """Call the user's torque at the last good state (at the step's clock values
+    ``t0``, ``t0 + dt/2``, ``t0 + dt``) to raise its own error, chained; ``traj`` (or
+    ``None``) goes on the error."""
+    for t in (t0, t0 + 0.5 * dt, t0 + dt):
+        exc, words = torque_failure(model, state, t, u, i)
+        if words is not None:
+            raise TorqueError(f"{name}: {words} {where}", traj, step, t0) from exc
+    raise TorqueError(f"{name}: the torque {model.signature} raised or returned non-finite "
+                      f"values inside the step {where} (it is well behaved at the step's "
+                      f"start state)", traj, step, t0)
+
+
+def torque_failure_words(model, state, t0, dt, u=None, i: int = 0) -> str:
+    """Why body ``i``'s torque failed in the step from ``t0`` (for an ensemble's warning)."""
+    for t in (t0, t0 + 0.5 * dt, t0 + dt):
+        words = torque_failure(model, state, t, u, i)[1]
+        if words is not None:
+            return f"{words} at t = {t:.6g}"
+    return (f"the torque {model.signature} raised or returned non-finite values inside the "
+            f"step from t = {t0:.6g} (well behaved at the step's start state)")
+
+
+def torque_stiffness(model, state, t0, u=None, i: int = 0) -> float:
+    """``max |dN/dL|`` of a user torque at ``state``, by central differences (a diagnosis)."""
+    if model.function is None:
+        return math.nan
+    q, m = state[:4], state[4:]
+    e = 1e-6 * max(1.0, float(np.max(np.abs(m))))
+    J = np.empty((3, 3))
+    try:
+        for k in range(3):
+            d = np.zeros(3)
+            d[k] = e
+            J[:, k] = (np.asarray(model(t0, q, m + d, u, i))
+                       - np.asarray(model(t0, q, m - d, u, i))) / (2 * e)
+    except Exception:
+        return math.nan
+    return float(np.max(np.abs(J)))
