@@ -50,8 +50,11 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
 def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
                ctl, q_out, m_out, saved, done, status, torque_addr, rows, dref, dmax) -> tuple:
     """The argument list of a batch or SIMD driver (``driver.BATCH_RUNNERS``,
-    ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group."""
-    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
+    ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group;
+    ``params``: the group's stage parameters (``(1, s, P)`` shared, or one row per body
+    of the group)."""
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock,
+            params if params.shape[0] == 1 else params[rows], merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
             torque_addr, plan.model_rows(rows), dref, dmax)
 
@@ -128,10 +131,22 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
             bar.close()
 
 
+def with_controls(params: np.ndarray, u: np.ndarray | None, n: int) -> np.ndarray:
+    """A plan's stage parameters (``(1, s, P)`` shared, or ``(n, s, P)``) with the controls
+    ``u`` (``(k,)``, or ``(n, k)`` one row per body) in the control slots of every stage
+    (the stages that do not call the torque ignore them): a new array, with a row per
+    body when ``u`` has one; the plan's own array unchanged without controls."""
+    if u is None:
+        return params
+    rows = n if (u.ndim == 2 or params.shape[0] != 1) else 1
+    out = np.array(np.broadcast_to(params, (rows, *params.shape[1:])))
+    write_controls(out, u)
+    return out
+
+
 def write_controls(params: np.ndarray, u: np.ndarray) -> None:
     """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, s, P)``)
-    in the control slots of every stage's parameters (the stages that do not call the
-    torque ignore them)."""
+    in the control slots of every stage's parameters, in place."""
     k = u.shape[-1]
     if u.ndim == 2:
         params[..., S.P_U0:S.P_U0 + k] = u[:, None, :]

@@ -33,7 +33,7 @@ from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-ex
     sample_diagnostics,
     time_slices,
     warn_invariants,
-    write_controls,
+    with_controls,
 )
 from liebody._kernels import stages as S
 from liebody.errors import IntegrationInterrupted
@@ -160,10 +160,8 @@ class EnsembleRun:
         whole = len(idx) == self.n
         sel = slice(None) if whole else idx
         # "saved" starts at 1: the kernel writes sample 1 + (samples saved so far)
-        params = plan.params
-        if self.u is not None:
-            params = params.copy()
-            write_controls(params, self.u if self.u.ndim == 1 else self.u[sel])
+        params = with_controls(plan.params, None if self.u is None else (
+            self.u if self.u.ndim == 1 else self.u[sel]), len(idx))
         g = {"idx": idx, "plan": plan, "params": params, "runner": runner, "whole": whole,
              "state": np.ascontiguousarray(np.concatenate([self.q0[sel], self.m0[sel]], axis=1)),
              "ctl": np.tile(np.array([self.save_every, 0], dtype=np.int64), (len(idx), 1)),
@@ -180,8 +178,7 @@ class EnsembleRun:
 
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
         p = g["plan"]
-        params = g["params"] if g["params"].shape[0] == 1 else g["params"][c]
-        g["runner"](*batch_args(p, params, p.merge_ends and not self.diag, self.dt, self.t0,
+        g["runner"](*batch_args(p, g["params"], p.merge_ends and not self.diag, self.dt, self.t0,
                                 float(done), k, self.save_every, final, g["state"][c],
                                 g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
                                 g["done"][c], g["status"][c], self.model.address, c,

@@ -23,6 +23,7 @@ Contract (a template method, after scipy's ``OdeSolver``):
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import warnings
@@ -65,6 +66,10 @@ SAMPLE_BYTES = 64
 MAX_STEPS = 2**53
 #: the largest |L| accepted: |L|^2 / (2 I) overflows float64 near 1e154
 MAX_MOMENTUM = 1e150
+#: bytes an ensemble's run allocates per body beyond its samples and its per-body stage
+#: parameters: state, records, diagnostics, the plan's set-up (measured 610-811 B with
+#: diagnostics for splitting2/8, rattle and dmv8; ``tests/faults/test_memory.py``)
+RUN_BYTES_PER_BODY = 1024
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
 
@@ -138,47 +143,81 @@ def _per_sample(bodies: int) -> int:
 
 
 def _available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux ``MemAvailable``), or None."""
+    """Bytes of memory available to a new allocation: Linux ``MemAvailable`` (or the free
+    pages), and no more than the address space the process may still map under a limit
+    (``RLIMIT_AS``, as batch systems set it); None when neither is known."""
+    avail = None
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    avail = int(line.split()[1]) * 1024
+                    break
     except (OSError, ValueError, IndexError):
         pass
+    if avail is None:
+        with contextlib.suppress(AttributeError, ValueError, OSError):  # (not POSIX)
+            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    room = _address_space_left()
+    if room is not None:
+        avail = room if avail is None else min(avail, room)
+    return avail
+
+
+def _address_space_left() -> int | None:
+    """Bytes the process may still map under ``RLIMIT_AS`` (None without a limit)."""
     try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if limit == resource.RLIM_INFINITY or limit < 0:
+            return None
+        with open("/proc/self/statm") as fh:
+            used = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        return max(0, limit - used)
+    except (ImportError, OSError, ValueError, IndexError, AttributeError):
         return None
 
 
-def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1) -> np.ndarray:
+def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
+                  per_body: int | None = None) -> np.ndarray:
     """Times of the saved samples: steps 0, save_every, 2 save_every, ..., and the last.
 
-    Refuses (``ValueError``) a run whose samples for ``bodies`` bodies do not fit in the
-    available memory, saying which ``save_every`` would.
+    Refuses (``ValueError``) a run whose samples for ``bodies`` bodies, with ``per_body``
+    bytes of each body's other arrays (:data:`RUN_BYTES_PER_BODY` by default for an
+    ensemble), do not fit in the available memory, saying which ``save_every`` would.
     """
-    key = (n_steps, save_every, dt)
-    cached = _SHORT_TIMES.get(key)
-    if cached is not None:
-        return cached
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
     n_samples = n_saves + 1
     per = _per_sample(bodies)
-    need = n_samples * per
+    if per_body is None:
+        per_body = 0 if bodies == 1 else RUN_BYTES_PER_BODY
+    fixed = bodies * per_body
+    need = n_samples * per + fixed
     avail = None if need <= SMALL_RUN_BYTES else _available_memory()
+    if avail is not None and fixed > avail:
+        raise ValueError(
+            f"{bodies:,} bodies need {per_body:,} B each beyond their samples (the run's "
+            f"state, plan and diagnostics: {fixed / 1e9:.3g} GB), more than the "
+            f"{avail / 1e9:.3g} GB of memory available; run fewer bodies per call (or "
+            f"liebody.distributed)")
     if avail is not None and need > avail:
-        # suggest a save_every whose samples take at most half the available memory
-        fit = max(1, avail // (2 * per) - 1)
+        # suggest a save_every whose samples take at most half the memory left
+        fit = max(1, (avail - fixed) // (2 * per) - 1)
         every = max(save_every + 1, math.ceil(n_steps / fit))
         kept = n_steps // every + (1 if n_steps % every else 0) + 1
         what = "samples" if bodies == 1 else f"samples of {bodies:,} bodies"
         hint = "" if fit > 1 else "; or keep the final states only (save_every=None)"
+        beyond = f" and {fixed / 1e9:.3g} GB for the run's other arrays" if fixed else ""
         raise ValueError(
             f"save_every = {save_every:,} keeps {n_samples:.4g} {what} of "
-            f"{per} B ({need / 1e9:.3g} GB), more than the {avail / 1e9:.3g} GB "
-            f"of memory available; save_every = {every:,} keeps {kept:,} samples "
-            f"({kept * per / 1e9:.3g} GB){hint}")
+            f"{per} B ({n_samples * per / 1e9:.3g} GB){beyond}, more than the "
+            f"{avail / 1e9:.3g} GB of memory available; save_every = {every:,} keeps "
+            f"{kept:,} samples ({kept * per / 1e9:.3g} GB){hint}")
+    key = (n_steps, save_every, dt)  # (after the check: it depends on the bodies)
+    cached = _SHORT_TIMES.get(key)
+    if cached is not None:
+        return cached
     try:
         t = np.arange(n_samples, dtype=np.float64)
     except MemoryError:  # pragma: no cover - the check above should have refused it
@@ -339,7 +378,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
         _check_torque(model, q_init[0], m_init[0], _first_row(u), t0, ensemble=True)
-        t = _sample_times(n_steps, save_every, dt, n_bodies)
+        t = _sample_times(n_steps, save_every, dt, n_bodies,
+                          RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m_init, dt))
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                           progress, threads, diagnostics, u, t0, simd)
     return run.sampled() if method.sampled else run.stepped()
@@ -367,6 +407,19 @@ def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
 def scene_batch_shape(scene) -> tuple[int, ...]:
     """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many."""
     return tuple(getattr(scene, "batch_shape", ()))
+
+
+def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float) -> int:
+    """Bytes of stage parameters an ensemble's plan keeps per body: none when every body
+    shares them (a scene without per-body parameters), else a row per stage (from the
+    plan of body 0)."""
+    if method.sampled or not scene_batch_shape(scene):
+        return 0
+    try:
+        plan = method.plan(scene.take(0), m0[0], dt)
+    except ValueError:
+        return 0  # refused: the run says why
+    return plan.n_stages * S.N_PARAMS * 8
 
 
 def _check_potential(scene, model, q0: np.ndarray, n_bodies, t0: float) -> None:

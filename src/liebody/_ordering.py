@@ -275,6 +275,10 @@ def _levels(pieces_of, moments: np.ndarray) -> list[np.ndarray]:
     raise ValueError(f"unknown splitting family {pieces_of!r}")  # pragma: no cover
 
 
+#: bodies whose ordering choice is computed at once (bounds the temporaries)
+ROWS_AT_ONCE = 8192
+
+
 def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
     """:func:`best_axis_ordering` (``pieces_of = axis_pieces``) or :func:`best_sr2_variant`
     (``sr2_pieces``) for many bodies at once: the index into :data:`ORDERINGS` and the
@@ -285,7 +289,17 @@ def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
         order, score = _best(pieces_of, *_key(moments[0], m0[0]))
         return np.array([ORDERINGS.index(order)]), np.array([score])
     moments, m0 = np.broadcast_arrays(moments, m0)
-    return _best_rows(pieces_of, moments, np.abs(m0))
+    n = moments.shape[0]
+    if n <= ROWS_AT_ONCE:
+        return _best_rows(pieces_of, moments, np.abs(m0))
+    # in chunks of bodies: the temporaries (about 1.2 kB a body) stay bounded, and every
+    # body's result is the same bits (the arithmetic is per body, in a fixed order)
+    order = np.empty(n, dtype=np.int64)
+    score = np.empty(n)
+    for a in range(0, n, ROWS_AT_ONCE):
+        b = min(n, a + ROWS_AT_ONCE)
+        order[a:b], score[a:b] = _best_rows(pieces_of, moments[a:b], np.abs(m0[a:b]))
+    return order, score
 
 
 def _best_rows(pieces_of, moments: np.ndarray, m0: np.ndarray, segments=None, V=None):

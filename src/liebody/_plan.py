@@ -197,16 +197,21 @@ class Stage:
             raise ValueError(f"stage axis must be 0, 1 or 2, got {self.axis!r}")
 
     def rows(self, n: int) -> np.ndarray:
-        """The parameter rows ``(n, N_PARAMS)`` (the named slots of ``stages``); computed
-        once per ``n`` (a stage is immutable), so do not write to them."""
+        """The parameter rows of ``n`` bodies (the named slots of ``stages``): ``(1,
+        N_PARAMS)`` when every body has the same parameters (stored once, whatever ``n``),
+        else ``(n, N_PARAMS)``; computed once per ``n`` (a stage is immutable), so do not
+        write to them."""
         cache = self.__dict__.setdefault("_rows", {})
         p = cache.get(n)
         if p is None:
-            p = np.zeros((n, S.N_PARAMS))
-            p[:, S.P_I1:S.P_I3 + 1] = self.moments
-            p[:, S.P_RATE] = self.rate
+            fields = ((self.moments, 2), (self.rate, 1), (self.eps, 1))
+            shared = all(_same_for_all(v, rank) for v, rank in fields)
+            p = np.zeros((1 if shared else n, S.N_PARAMS))
+            for (v, rank), cols in zip(fields, (slice(S.P_I1, S.P_I3 + 1), S.P_RATE, S.P_EPS),
+                                       strict=True):
+                v = np.asarray(v, dtype=float)
+                p[:, cols] = v[:1] if shared and v.ndim == rank else v
             p[:, S.P_TORQUE] = float(self.torque)
-            p[:, S.P_EPS] = self.eps
             cache[n] = p
         return p
 
@@ -219,6 +224,13 @@ class Stage:
         """A stage that does nothing: zero time, or a rotation at zero rate for every body."""
         return self.coef == 0.0 or (S.KINDS[self.kind].rotation
                                     and bool(np.all(np.asarray(self.rate) == 0.0)))
+
+
+def _same_for_all(value, rank: int) -> bool:
+    """Whether a stage field (a number or vector, or one per body: ``rank`` dimensions
+    with the body axis) is the same for every body."""
+    a = np.asarray(value)
+    return a.ndim < rank or a.shape[0] <= 1 or bool(np.all(a == a[:1]))
 
 
 def rotation(axis: int, coef: float, rate, recurring: bool = False,
@@ -241,7 +253,8 @@ def sphere(coef: float, rate, clock: float = 0.0) -> Stage:
 class Plan:
     """A method made concrete for a group of bodies, their initial state and step.
 
-    ``params`` has a leading body axis ``(N, s, N_PARAMS)``, ``model`` holds the torque
+    ``params`` has a leading body axis, ``(N, s, N_PARAMS)``, or ``(1, s, N_PARAMS)`` when
+    every body of the group has the same parameters (stored once), ``model`` holds the torque
     model's parameter blocks (``(1, k)`` shared, or ``(N, k)``); the structure (``kinds``,
     ``axes``, ``coefs``, ``clock``, ``merge_ends``) is common. ``family`` is the driver
     family (``stages.F_*``) that runs it; ``info`` records the set-up choices (axis
@@ -261,6 +274,10 @@ class Plan:
     def model_rows(self, c) -> np.ndarray:
         """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
         return self.model if self.model.shape[0] == 1 else self.model[c]
+
+    def param_rows(self, c) -> np.ndarray:
+        """The stage parameters of the bodies ``c`` (a slice) of this plan."""
+        return self.params if self.params.shape[0] == 1 else self.params[c]
 
     @property
     def n_stages(self) -> int:
@@ -291,7 +308,11 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
     if not merged:  # a flow that does nothing (e.g. every rate zero)
         merged = [sphere(1.0, 0.0, clock=1.0)]
     kinds = np.array([s.kind for s in merged], dtype=np.int64)
-    params = np.stack([s.rows(n) for s in merged], axis=1)  # (n, s, P)
+    rows = [s.rows(n) for s in merged]
+    if all(r.shape[0] == 1 for r in rows):  # shared by every body: stored once
+        params = np.stack(rows, axis=1)  # (1, s, P)
+    else:
+        params = np.stack([np.broadcast_to(r, (n, S.N_PARAMS)) for r in rows], axis=1)
     return Plan(
         kinds=kinds,
         axes=np.array([s.axis for s in merged], dtype=np.int64),
@@ -307,8 +328,10 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
 
 def _mergeable(a: Stage, b: Stage, n: int) -> bool:
     """Flows of the same Hamiltonian for every body: same mergeable kind, axis, parameters."""
-    return (S.KINDS[a.kind].mergeable and a.kind == b.kind and a.axis == b.axis
-            and np.array_equal(a.rows(n), b.rows(n)))
+    if not (S.KINDS[a.kind].mergeable and a.kind == b.kind and a.axis == b.axis):
+        return False
+    ra, rb = a.rows(n), b.rows(n)
+    return ra.shape == rb.shape and np.array_equal(ra, rb)
 
 
 def compose(base: list[Stage], coefficients) -> list[Stage]:

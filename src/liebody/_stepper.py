@@ -259,7 +259,10 @@ class Stepper:
                                     for (idx, plan), r in zip(groups, runners, strict=True)]}
         self._groups = []
         for (idx, plan), (runner, simd) in zip(groups, runners, strict=True):
-            params = plan.params.copy()
+            # a row per body where controls may be set per body, else as the plan stores
+            # them (one row when every body shares them)
+            rows = len(idx) if self._scene.controls else plan.params.shape[0]
+            params = np.array(np.broadcast_to(plan.params, (rows, *plan.params.shape[1:])))
             if self._u is not None:
                 write_controls(params, self._u if self._u.ndim == 1 else self._u[idx])
             self._groups.append(self._group(idx, plan, params, runner, simd))
@@ -270,8 +273,9 @@ class Stepper:
         and the slice (``t0, step0, n_steps, save_every, final``): views, built once."""
         p = g["plan"]
         return {"g": g, "c": c, "fn": g["runner"], "resolved": False,
-                "head": (p.kinds, p.axes, p.coefs, p.clock, g["params"][c], g["merge"],
-                         self._dt),
+                "head": (p.kinds, p.axes, p.coefs, p.clock,
+                         g["params"] if g["params"].shape[0] == 1 else g["params"][c],
+                         g["merge"], self._dt),
                 "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
                          g["done"][c], g["status"][c], self._model.address,
                          p.model_rows(c), g["dref"][c], g["dmax"][c])}

@@ -114,6 +114,11 @@ class Run:
         return self
 
 
+def per_body(params, n):
+    """A plan's stage parameters with a row per body (a copy: a test changes one body's)."""
+    return np.array(np.broadcast_to(params, (n, *params.shape[1:])))
+
+
 def simd(plan, diag=False):
     return SIMD_RUNNERS[(plan.family, diag)]
 
@@ -218,13 +223,13 @@ def test_a_plan_it_cannot_run_stops_like_the_scalar_driver():
                                                            S.STATUS_BAD_STAGE]
     assert np.all(run.done == 0) and np.all(run.saved == 1)
     top, _ = _case_run(CASES[6], 4, 3, 1)
-    top.plan.params = top.plan.params.copy()
+    top.plan.params = per_body(top.plan.params, 4)
     kick = int(np.flatnonzero(top.plan.kinds == S.KICK)[0])
     top.plan.params[2, kick, S.P_TORQUE] = S.MAX_MODEL_CODE + 1
     top.go(simd(top.plan))
     assert list(top.status) == [0, 0, S.STATUS_BAD_STAGE, 0]
     top, _ = _case_run(CASES[6], 4, 3, 1)
-    top.plan.params = top.plan.params.copy()
+    top.plan.params = per_body(top.plan.params, 4)
     top.plan.params[1, kick, S.P_TORQUE] = S.TORQUE_NONE
     top.go(simd(top.plan))
     assert list(top.status) == [0, S.STATUS_BAD_STAGE, 0, 0]
@@ -325,7 +330,8 @@ def test_a_failing_body_leaves_the_others_alone(case):
         assert np.isnan(a.q[i]).all()
     good = [i for i in range(12) if i not in bad]
     alone = Run(run.plan, run.state[good, :4], run.state[good, 4:], run.h, 10, 3)
-    alone.plan = type(run.plan)(**{**run.plan.__dict__, "params": run.plan.params[good]})
+    alone.plan = type(run.plan)(**{**run.plan.__dict__, "params": per_body(
+        run.plan.params, 12)[good]})
     alone.go(simd(alone.plan), [4, 6])
     np.testing.assert_array_equal(a.q[good], alone.q)
     np.testing.assert_array_equal(a.state[good], alone.state)
@@ -338,7 +344,7 @@ def test_a_body_that_fails_later_stops_at_its_last_good_step():
     step and samples are the scalar driver's; a run of exactly ``done`` steps of that
     body alone gives its samples."""
     run = _with_bad_bodies(CASES[0], 9, 200, 2, {4: [0.7e308, 0.0, 0.3e308]})
-    run.plan.params = run.plan.params.copy()
+    run.plan.params = per_body(run.plan.params, len(run.status))
     run.plan.params[4, :, S.P_RATE] *= 1e-308
     a = run.copy().go(simd(run.plan), [5, 195])
     b = run.copy().go(scalar(run.plan), [5, 195])

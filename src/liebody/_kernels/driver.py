@@ -413,12 +413,12 @@ def _runner(family: int, diag: bool = False):
 def _batch_runner(family: int, diag: bool = False):
     """The driver of one family for many bodies: the one-body loop run for each body.
 
-    ``params`` ``(N, s, P)``, ``mpar`` the model's parameter blocks ``(1, k)`` (shared)
-    or ``(N, k)`` (one per body), ``state`` ``(N, 7)``, ``ctl`` ``(N, 2)``, ``q_out``
-    ``(N, S, 4)``, ``m_out`` ``(N, S, 3)``; ``saved``, ``done`` and ``status`` ``(N,)``
-    (int64, in place) count each body's saved samples and completed steps and hold its
-    status. A body whose status is not OK is skipped (it failed in an earlier slice):
-    failures are per body, the others go on. Each body's numbers are those of the
+    ``params`` ``(N, s, P)`` (or ``(1, s, P)``, shared), ``mpar`` the model's parameter
+    blocks ``(1, k)`` (shared) or ``(N, k)`` (one per body), ``state`` ``(N, 7)``, ``ctl``
+    ``(N, 2)``, ``q_out`` ``(N, S, 4)``, ``m_out`` ``(N, S, 3)``; ``saved``, ``done`` and
+    ``status`` ``(N,)`` (int64, in place) count each body's saved samples and completed
+    steps and hold its status. A body whose status is not OK is skipped (it failed in an
+    earlier slice): failures are per body, the others go on. Each body's numbers are those of the
     one-body driver, bit for bit.
 
     The one-body drivers are called as module globals (``_R<family>``, ``_D<family>``)
@@ -433,12 +433,13 @@ def _batch_runner(family: int, diag: bool = False):
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
             dmax):
         shared = mpar.shape[0] == 1
+        pshared = params.shape[0] == 1
         for i in range(state.shape[0]):
             if status[i] != STATUS_OK:
                 continue
-            a = (kinds, axes, coefs, clock, params[i], merge_ends, h, t0, step0, n_steps,
-                 save_every, final, state[i], ctl[i], q_out[i, saved[i]:], m_out[i, saved[i]:],
-                 torque_addr, mpar[0] if shared else mpar[i], dref[i], dmax[i])
+            a = (kinds, axes, coefs, clock, params[0 if pshared else i], merge_ends, h, t0,
+                 step0, n_steps, save_every, final, state[i], ctl[i], q_out[i, saved[i]:],
+                 m_out[i, saved[i]:], torque_addr, mpar[0] if shared else mpar[i], dref[i], dmax[i])
             if diag:
                 if family == 0:
                     d, s, st = _D0(*a)
