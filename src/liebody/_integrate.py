@@ -656,9 +656,14 @@ class _Run:
                 f"{name}: the implicit kick of the momentum-dependent torque did not "
                 f"converge {where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; "
                 f"reduce dt, or check that the torque is smooth in L", traj, done, t0)
-        raise RuntimeError(  # pragma: no cover - a plan the family cannot run
-            f"{name}: the plan holds a stage its driver does not run (status {status}): "
-            f"a bug in its recipe")
+        from liebody._kernels._jit import cache_advice
+
+        raise RuntimeError(
+            f"{name}: the driver returned status {status}, which no driver returns for a "
+            f"plan it can run. Either numba's disk cache gave this process another "
+            f"kernel's compiled code (a damaged or mixed-up cache: {cache_advice()}), or "
+            f"the method's recipe holds a stage its driver does not run (a bug: please "
+            f"report it if a fresh cache does not help)")
 
     def _finish(self, traj: Trajectory) -> Trajectory:
         return warn_invariants(traj, stacklevel=5)

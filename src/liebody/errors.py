@@ -67,10 +67,16 @@ class InvariantWarning(RuntimeWarning):
 
 
 class CacheWarning(RuntimeWarning):
-    """numba's disk cache is unavailable: kernels compile in every new process.
+    """numba's disk cache could not be used as it should; the results are not affected.
 
-    Emitted once per process, on the first kernel numba cannot cache (no writable
-    cache folder, e.g. a read-only install). Set the environment variable
-    ``NUMBA_CACHE_DIR`` to a writable folder to cache compiled kernels again.
+    Emitted once per process and kind:
+
+    * no writable cache folder (e.g. a read-only install), or a save that failed: the
+      kernels compile in every new process. Set the environment variable
+      ``NUMBA_CACHE_DIR`` to a writable folder to cache compiled kernels again;
+    * a damaged cache file (a truncated or overwritten ``*.nbi``/``*.nbc``): it is
+      deleted, the kernel compiles again and its new entry replaces it. The warning names
+      the file and how to clear the cache (delete the folder, or point
+      ``NUMBA_CACHE_DIR`` at an empty one).
     """
 

@@ -43,6 +43,17 @@ again in one process. A factory therefore gives each kernel a ``tag``, appended 
 qualified name (``_runner.<locals>.run_family3``), and :func:`jit` refuses two kernels of
 one name.
 
+A damaged cache entry (a truncated or overwritten ``*.nbi`` index or ``*.nbc`` data file:
+a full disk, a write interrupted on a file system without atomic rename, a cache copied
+by hand) made numba fail every call of the kernel in every new process, with
+``UnpicklingError``, ``EOFError`` or ``RuntimeError: LLVM bitcode parsing error``, naming
+neither the cache nor the fix. Every cached kernel therefore gets :class:`SafeCache`, a
+numba cache whose load treats any failure as a cache miss: the kernel compiles again,
+the bad file is deleted and replaced by the new entry, and the first such entry of a
+process warns (:class:`~liebody.errors.CacheWarning`, naming the file, its folder and how
+to clear the cache). A save that fails (a folder that cannot be written) warns the same
+way instead of failing the compile: the kernel runs, uncached.
+
 numba itself is imported on the first kernel, not with this module, so
 ``liebody.CacheWarning`` can be named (e.g. in a warnings filter) without loading it.
 """
@@ -106,11 +117,29 @@ def _locked_cache_file_class():
 
     class _LockedCacheFile(IndexDataCacheFile):
         """numba's index-and-data cache file with its save made safe between processes:
-        under a lock on ``<index>.lock``, the data is written before the index names it."""
+        under a lock on ``<index>.lock``, the data is written before the index names it.
+        ``reading`` is the file a load is reading (what to blame when it fails)."""
+
+        reading: str | None = None
+
+        def load(self, key):
+            self.reading = self._index_path
+            overloads = self._load_index()
+            data_name = overloads.get(key)
+            if data_name is None:
+                return None
+            self.reading = self._data_path(data_name)
+            try:
+                return self._load_data(data_name)
+            except FileNotFoundError:  # removed while the index still names it: a miss
+                return None
 
         def save(self, key, data):
             with _file_lock(self._index_path + ".lock"):
-                overloads = self._load_index()
+                try:
+                    overloads = self._load_index()
+                except Exception:  # a damaged index: rewritten with this entry alone
+                    overloads = {}
                 data_name = overloads.get(key)
                 if data_name is None:
                     existing = set(overloads.values())
@@ -132,13 +161,115 @@ def _locked_cache_file_class():
 LockedCacheFile = None
 
 
+#: the warnings of the disk cache given in this process (each kind once)
+_WARNED: set[str] = set()
+#: the folder numba caches liebody's kernels in (``None`` before the first cached kernel)
+_FOLDER: str | None = None
+
+
+def cache_folder() -> str:
+    """The folder numba's disk cache keeps liebody's compiled kernels in, in words."""
+    from numba.core import config
+
+    root = getattr(config, "CACHE_DIR", "") or ""
+    if root:
+        return f"{root} (NUMBA_CACHE_DIR)"
+    if _FOLDER is not None:
+        return f"{os.path.dirname(_FOLDER)} (NUMBA_CACHE_DIR is not set)"
+    return "numba's default cache folder (NUMBA_CACHE_DIR is not set)"
+
+
+def cache_advice() -> str:
+    """How to clear numba's disk cache of liebody's kernels, for messages."""
+    return (f"to clear numba's disk cache, delete the folder {cache_folder()} or set the "
+            f"environment variable NUMBA_CACHE_DIR to an empty folder, then start a new "
+            f"process")
+
+
+def _warn_once(kind: str, message: str) -> None:
+    if kind in _WARNED:
+        return
+    _WARNED.add(kind)
+    warnings.warn(message, CacheWarning, stacklevel=3)
+
+
+def _damaged(cache, exc: Exception) -> None:
+    """A cache load raised: delete the file it was reading (the compile that follows
+    writes a new entry) and warn, once per process."""
+    path = getattr(cache._cache_file, "reading", None)
+    removed = False
+    if path is not None:
+        index = cache._cache_file._index_path
+        with _file_lock(index + ".lock"), contextlib.suppress(OSError):
+            os.unlink(path)
+            removed = True
+    what = (f"the cache file {path}" if path is not None
+            else f"an entry of the cache folder {cache._cache_path}")
+    done = ("it was deleted and the kernel compiled again (its new entry replaces it)"
+            if removed else "the kernel was compiled again, but the file could not be "
+                            "deleted")
+    _warn_once("damaged", (
+        f"liebody: numba could not load {what} ({type(exc).__name__}: "
+        f"{str(exc)[:200]}): the file is damaged (truncated or overwritten: a full disk, "
+        f"an interrupted write, a copied cache). {done[0].upper()}{done[1:]}; results are "
+        f"not affected. Later damaged entries in this process are treated the same way "
+        f"without another warning. If this recurs, {cache_advice()}."))
+
+
+def _unsaved(cache, exc: Exception) -> None:
+    _warn_once("unsaved", (
+        f"liebody: numba could not write a compiled kernel to its disk cache in "
+        f"{cache._cache_path} ({type(exc).__name__}: {str(exc)[:200]}). The kernel runs "
+        f"(results are the same), but new processes compile it again. Set the "
+        f"environment variable NUMBA_CACHE_DIR to a writable folder to cache it."))
+
+
+def _safe_cache_class(base):
+    """:class:`SafeCache` for numba's cache class ``base`` (made once per class)."""
+    cls = _SAFE_CACHES.get(base)
+    if cls is not None:
+        return cls
+
+    class SafeCache(base):
+        """numba's cache of one kernel, whose failing load is a cache miss (the bad file
+        deleted, a :class:`~liebody.errors.CacheWarning`) and whose failing save warns
+        instead of failing the compile."""
+
+        def load_overload(self, sig, target_context):
+            self._cache_file.reading = None
+            try:
+                return super().load_overload(sig, target_context)
+            except Exception as exc:
+                _damaged(self, exc)
+                return None
+
+        def save_overload(self, sig, data):
+            try:
+                super().save_overload(sig, data)
+            except Exception as exc:
+                _unsaved(self, exc)
+
+    SafeCache.__name__ = SafeCache.__qualname__ = f"Safe{base.__name__}"
+    _SAFE_CACHES[base] = SafeCache
+    return SafeCache
+
+
+_SAFE_CACHES: dict = {}
+
+
 def _lock_cache(dispatcher) -> None:
-    """Give a cached kernel the safe cache file (see the module docstring)."""
+    """Give a cached kernel the safe cache file and cache (see the module docstring)."""
+    global _FOLDER
     cache = getattr(dispatcher, "_cache", None)
     cache_file = getattr(cache, "_cache_file", None)
     cls = _locked_cache_file_class()
     if cache_file is not None and isinstance(cache_file, cls.__bases__[0]):
         cache_file.__class__ = cls
+        if type(cache) in _SAFE_CACHES.values():
+            return
+        cache.__class__ = _safe_cache_class(type(cache))
+        if _FOLDER is None:
+            _FOLDER = getattr(cache, "_cache_path", None)
 
 
 def _compile(fn, options: dict):
