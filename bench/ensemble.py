@@ -19,7 +19,7 @@ ordering is chosen per body, and building the trajectory). Paths:
   the fixed cost of a call (validation, planning, ~0.1 ms) shows at small ``steps``.
 * **batched scalar** — one ``integrate()`` call with ``q0`` ``(N, 4)``, ``L0`` ``(N, 3)``,
   ``threads`` 1 and 2 and ``simd=False``: the ensemble runs the one-body loop for each
-  body (``driver.BATCH_RUNNERS``), bodies in contiguous chunks over the threads.
+  body (``batch_drivers.BATCH_RUNNERS``), bodies in contiguous chunks over the threads.
 * **batched SIMD** — the same call with ``simd=True`` (the default for 3 or more bodies):
   the SIMD drivers (``liebody._kernels.batch.SIMD_RUNNERS``: the body loop innermost,
   vectorised, a polynomial sin/cos).
@@ -114,13 +114,14 @@ class Stepping:
 @contextlib.contextmanager
 def recording(stepping: Stepping):
     """Record the wall-clock span of every batch driver call (scalar and SIMD, from any
-    thread) in ``stepping``: the drivers in ``driver.BATCH_RUNNERS``,
+    thread) in ``stepping``: the drivers in ``batch_drivers.BATCH_RUNNERS``,
     ``DIAG_BATCH_RUNNERS`` and ``batch.SIMD_RUNNERS`` (the dicts the ensembles read at
     every call) are wrapped for the duration, and restored on exit. Which of them runs
     is ``integrate``'s own switch (``simd=True`` / ``False``)."""
-    from liebody._kernels import batch, driver
+    from liebody._kernels import batch, batch_drivers
 
-    tables = (driver.BATCH_RUNNERS, driver.DIAG_BATCH_RUNNERS, batch.SIMD_RUNNERS)
+    tables = (batch_drivers.BATCH_RUNNERS, batch_drivers.DIAG_BATCH_RUNNERS,
+              batch.SIMD_RUNNERS)
     saved = [dict(t) for t in tables]
     try:
         for table in tables:

@@ -49,7 +49,7 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
 
 def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
                ctl, q_out, m_out, saved, done, status, torque_addr, rows, dref, dmax) -> tuple:
-    """The argument list of a batch or SIMD driver (``driver.BATCH_RUNNERS``,
+    """The argument list of a batch or SIMD driver (``batch_drivers.BATCH_RUNNERS``,
     ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group;
     ``params``: the group's stage parameters (``(1, s, P)`` shared, or one row per body
     of the group)."""

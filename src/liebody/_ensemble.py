@@ -122,7 +122,7 @@ class EnsembleRun:
     def _runner(self, plan):
         """The batch driver of a plan: the SIMD one where it applies, else the one-body
         loop per body; and whether it is the SIMD one."""
-        from liebody._kernels.driver import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
+        from liebody._kernels.batch_drivers import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
 
         wanted = self.simd is not False and (self.simd or self.n >= _simd().SIMD_MIN_BODIES)
         if wanted and _simd().simd_supports(plan, self.model.code):

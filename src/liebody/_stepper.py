@@ -301,7 +301,7 @@ class Stepper:
         of :func:`liebody.integrate` (``simd``, ``SIMD_MIN_BODIES``, ``simd_supports``),
         so that a stepper runs the kernel ``integrate()`` runs."""
         from liebody._kernels import batch
-        from liebody._kernels.driver import BATCH_RUNNERS
+        from liebody._kernels.batch_drivers import BATCH_RUNNERS
 
         wanted = self._simd is not False and (self._simd or self._n >= batch.SIMD_MIN_BODIES)
         if wanted and batch.simd_supports(plan, self._model.code):

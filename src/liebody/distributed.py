@@ -145,10 +145,12 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     ``info`` of the groups)."""
     from liebody import _methods
     from liebody._integrate import (
+        RUN_BYTES_PER_BODY,
         _bodies,
         _check_batch,
         _initial_momentum,
         _sample_times,
+        _stage_bytes_per_body,
         _step_count,
         as_controls,
     )
@@ -181,7 +183,11 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     u = as_controls(scene, controls, n)
     q = np.ascontiguousarray(np.broadcast_to(q, (n, 4)))
     m = np.ascontiguousarray(np.broadcast_to(m, (n, 3)))
-    t = _sample_times(n_steps, save_every, dt, n if gather else 1)
+    # the local call's memory check (its words too): the samples and each body's other
+    # arrays (gathered, only the samples come back to this process)
+    t = (_sample_times(n_steps, save_every, dt, n,
+                       RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m, dt))
+         if gather else _sample_times(n_steps, save_every, dt, 1))
     times = t if t0 == 0.0 else t0 + t
     groups = None
     if not method.sampled:

@@ -5,10 +5,21 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
 from liebody._methods import Method
+
+
+class Failure(NamedTuple):
+    """One body's failure, as a record: which body (``None`` for a one-body run), the
+    time the failing step was to reach, and why (``"non-finite state"``, ``"DMV equation
+    not solved"``, ``"implicit kick not solved"``, ``"torque failed"``)."""
+
+    body: int | None
+    t: float
+    reason: str
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,7 +49,8 @@ class Trajectory:
         ``"complete"``; ``"failed"`` (a non-finite state, a failed implicit solve or a
         failing torque: the samples stop before the failing step); ``"interrupted"``
         (Ctrl-C: the samples computed so far). For an ensemble, an array ``(N,)`` per
-        body (``"failed: non-finite state"``, ...).
+        body (``"failed: non-finite state"``, ...); :attr:`failures` gives the failed
+        bodies as records.
 
     diagnostics : dict or None
         With ``integrate(..., diagnostics=True)``: ``max_energy_error``,
@@ -78,6 +90,21 @@ class Trajectory:
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
+
+    @property
+    def failures(self) -> tuple[Failure, ...]:
+        """The failed bodies as records (:class:`Failure`: body, time, reason), in body
+        order; empty for a complete or interrupted run. Read these rather than the
+        warning's words."""
+        if np.ndim(self.status) == 0:
+            if self.failed_at is None:
+                return ()
+            reason = str(self.status)[8:] if str(self.status).startswith("failed: ") else ""
+            return (Failure(None, float(self.failed_at), reason or "failed"),)
+        status = np.asarray(self.status)
+        at = np.asarray(self.failed_at, dtype=float)
+        return tuple(Failure(int(i), float(at[i]), str(status[i])[8:] or "failed")
+                     for i in range(status.shape[0]) if str(status[i]).startswith("failed"))
 
     @property
     def n_bodies(self) -> int | None:

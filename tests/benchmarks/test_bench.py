@@ -229,9 +229,9 @@ def test_ensemble_recording_times_the_drivers_and_restores_them():
     """bench.ensemble.recording wraps every batch driver for one call only; integrate's
     own switch chooses the scalar or the SIMD driver."""
     from bench.ensemble import Stepping, recording
-    from liebody._kernels import batch, driver
+    from liebody._kernels import batch, batch_drivers
 
-    before = dict(driver.BATCH_RUNNERS), dict(batch.SIMD_RUNNERS)
+    before = dict(batch_drivers.BATCH_RUNNERS), dict(batch.SIMD_RUNNERS)
     scene = liebody.FreeBody(liebody.RigidBody([0.6, 0.8, 1.0]))
     q0 = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
     L0 = np.array([[1.8, 0.4, -0.9], [1.7, 0.5, -0.9], [1.8, 0.4, -1.0]])
@@ -239,13 +239,13 @@ def test_ensemble_recording_times_the_drivers_and_restores_them():
     for simd in (False, True):
         rec = Stepping()
         with recording(rec):
-            assert driver.BATCH_RUNNERS[0] is not before[0][0]
+            assert batch_drivers.BATCH_RUNNERS[0] is not before[0][0]
             out[simd] = liebody.integrate(scene, q0=q0, L0=L0, dt=0.05, steps=50,
                                           method="splitting2", save_every=None, simd=simd)
         assert rec.spans and rec.seconds > 0
         assert out[simd].info.get("simd", False) == simd or any(
             g["simd"] == simd for g in out[simd].info.get("groups", []))
-    assert driver.BATCH_RUNNERS == before[0] and batch.SIMD_RUNNERS == before[1]
+    assert batch_drivers.BATCH_RUNNERS == before[0] and batch.SIMD_RUNNERS == before[1]
     assert 0.0 < np.abs(out[True].q - out[False].q).max() < 1e-13
 
 

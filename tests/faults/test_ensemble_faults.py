@@ -37,6 +37,9 @@ def test_a_torque_nan_at_one_bodys_start_fails_that_body_only(bad, simd):
                                simd=simd)
     assert tr.status[bad].startswith("failed")
     assert np.isfinite(tr.failed_at[bad]) and np.isnan(tr.q[bad, 1:]).all()
+    # the failure as a record, not words to parse
+    assert tr.failures == ((bad, tr.failed_at[bad], "torque failed"),)
+    assert tr.failures[0].body == bad and tr.failures[0].reason == "torque failed"
     for i in set(range(4)) - {bad}:
         assert tr.status[i] == "complete"
         one = liebody.integrate(liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]),

@@ -27,7 +27,7 @@ from liebody._kernels.batch import (
     simd_supports,
     sincos_array,
 )
-from liebody._kernels.driver import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
+from liebody._kernels.batch_drivers import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
 
 JIT = os.environ.get("NUMBA_DISABLE_JIT") != "1"
 EPS = np.finfo(float).eps

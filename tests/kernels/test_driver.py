@@ -15,11 +15,35 @@ from support import drive
 
 
 def test_every_kind_has_a_contract_entry_and_a_general_family():
-    assert set(S.KINDS) == set(S.FAMILIES[S.F_GENERAL])
     for code, kind in S.KINDS.items():
         assert all(p in S.SLOTS for p in kind.params), (code, kind)
         assert S.family_of([code]) != S.F_GENERAL  # every kind has a small family
     assert len(set(S.SLOTS.values())) == S.N_PARAMS  # one meaning per slot
+
+
+@pytest.mark.parametrize("family", sorted(S.FAMILIES))
+def test_every_family_runs_every_kind_it_declares(family):
+    """The driver of each family runs each kind the contract gives it (a kind missing
+    from its dispatch would stop with STATUS_BAD_STAGE, or do nothing: the state must
+    move), and refuses the others."""
+    from liebody._kernels.driver import RUNNERS
+
+    I = (1.0, 2.0, 3.0)
+    for kind in sorted(S.KINDS):
+        st = Stage(kind, 1.0, 1.0, axis=1, rate=0.7, moments=I,
+                   torque=S.TORQUE_GRAVITY, eps=0.3)
+        plan = compile_plan([st], model=np.array([[0.0, 0.4, 0.9]]))
+        state = np.array([0.9, 0.1, -0.3, 0.2, 0.5, -0.4, 0.8])
+        state[:4] /= np.linalg.norm(state[:4])
+        before = state.copy()
+        done, _, status = drive(plan, 0.1, 1, state, np.empty((1, 4)), np.empty((1, 3)),
+                                runners=RUNNERS if family == plan.family else
+                                {plan.family: RUNNERS[family]})
+        if kind in S.FAMILIES[family]:
+            assert (done, status) == (1, S.STATUS_OK), (S.KINDS[kind].name, family)
+            assert not np.array_equal(state, before), (S.KINDS[kind].name, family)
+        else:
+            assert status == S.STATUS_BAD_STAGE, (S.KINDS[kind].name, family)
 
 
 def test_unknown_stage_kind_is_an_error():
@@ -148,3 +172,21 @@ def test_the_general_family_runs_mixed_plans(hlw):
         assert plan.family != S.F_GENERAL
         drive(plan, 0.1, 1, state, np.empty((1, 4)), np.empty((1, 3)))
     np.testing.assert_allclose(one, state, atol=1e-15, rtol=0)
+
+
+def test_the_generated_batch_drivers_are_fresh():
+    """batch_drivers.py is written by batch_gen from its template for the families of the
+    stage contract; a change of either without regenerating fails here."""
+    from liebody._kernels import batch_drivers, batch_gen
+
+    assert batch_gen.TARGET.read_text() == batch_gen.source(), (
+        "regenerate: python -m liebody._kernels.batch_gen")
+    assert set(batch_drivers.BATCH_RUNNERS) == set(S.FAMILIES)
+    assert set(batch_drivers.DIAG_BATCH_RUNNERS) == set(S.FAMILIES)
+    # the generator follows the contract: one more family, one more pair of drivers
+    fake = {**S.FAMILIES, 99: frozenset({S.AXIS})}
+    import unittest.mock as mock
+
+    with mock.patch.object(batch_gen, "FAMILIES", fake):
+        text = batch_gen.source()
+    assert "def batch_family99(" in text and "def batch_family99_diag(" in text

@@ -1,8 +1,8 @@
 """SIMD kernels across bodies: the ensemble drivers with the body loop innermost.
 
 :data:`SIMD_RUNNERS` holds, for the families below and ``diag`` off/on, a driver with
-exactly the signature and semantics of :data:`liebody._kernels.driver.BATCH_RUNNERS`
-(read ``driver._runner`` and ``driver._batch_runner``): slices (``t0``, ``step0``,
+exactly the signature and semantics of :data:`liebody._kernels.batch_drivers.BATCH_RUNNERS`
+(read ``driver._runner`` and ``batch_drivers``): slices (``t0``, ``step0``,
 ``ctl``, ``final``), saving every ``save_every`` steps and at the end of the
 last slice, first-same-as-last merging of end stages, per-body failure (status, steps
 done, last good state; bodies with a non-zero status on entry are skipped) and the
@@ -1081,7 +1081,7 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
 
 def _simd_runner(family: int, diag: bool = False):
     """The SIMD driver of one family for many bodies (``family``, ``diag``: compile-time
-    constants); the signature and semantics of ``driver.BATCH_RUNNERS[family]``."""
+    constants); the signature and semantics of ``batch_drivers.BATCH_RUNNERS[family]``."""
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
