@@ -42,6 +42,7 @@ __all__ = [
     "axis_role",
     "chandler_period",
     "cone_angles",
+    "dual_spin_stable",
     "fit_growth_rate",
     "flip_period",
     "measured_space_precession_rate",
@@ -641,6 +642,55 @@ def stability(moments, omega: float, axis: int) -> Stability:
         # symmetric top about its symmetry axis, or the smallest/largest axis
         return Stability(True, float(math.sqrt(abs(kappa)) * w))
     return Stability(False, float(math.sqrt(kappa) * w))
+
+
+def dual_spin_stable(moments, omega: float, axis: int, rotor: float) -> Stability:
+    """Stability of a gyrostat's steady spin ``omega`` about the principal axis ``axis``
+    with rotor momentum ``rotor`` along that axis (a dual-spin satellite).
+
+    Hughes, *Spacecraft Attitude Dynamics* (1986), ch. 7. With ``l = rotor e_a`` the body
+    turns at ``omega = (L_a - rotor) / I_a``; linearising ``L' = L x I^-1 (L - l)`` about
+    ``L = (I_a omega + rotor) e_a`` gives, for the transverse components,
+    ``L_b'' = -kappa L_b`` with
+
+        ``kappa = ((I_a - I_b) omega + rotor) ((I_a - I_c) omega + rotor) / (I_b I_c)``:
+
+    stable (oscillating at ``sqrt(kappa)``) when both factors have one sign, unstable
+    (growing at ``sqrt(-kappa)``) when they differ. Without a rotor this is
+    :func:`stability`'s rule (the intermediate axis is unstable); a rotor momentum of the
+    spin's sign, ``rotor > (I_b - I_a) |omega|`` for the larger transverse moment ``I_b``,
+    stabilises rotation about any axis, the intermediate one included. (Energy
+    dissipation in the body changes the rule: the Iorillo/Likins criterion; not modelled
+    here.)
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Principal moments of body and rotors together (> 0).
+    omega : float
+        The body's spin rate about ``axis`` (signed: ``rotor`` is measured along the same
+        direction).
+    axis : {0, 1, 2}
+        The spin axis.
+    rotor : float
+        The rotor momentum along ``axis`` (signed).
+
+    Returns
+    -------
+    Stability
+        ``(stable, rate)``: the nutation frequency or the growth rate.
+    """
+    I = _as_moments("moments", moments)
+    w = _as_real("omega", omega)
+    h = _as_real("rotor", rotor)
+    a = _as_axis("axis", axis)
+    b, c = (a + 1) % 3, (a + 2) % 3
+    fb, fc = (I[a] - I[b]) * w + h, (I[a] - I[c]) * w + h
+    kappa = fb * fc / (I[b] * I[c])
+    if not math.isfinite(kappa):
+        raise ValueError(f"the nutation rate overflows for moments {I.tolist()}, omega = {w}, "
+                         f"rotor = {h}")
+    return Stability(bool(kappa > 0), float(math.sqrt(abs(kappa))))
 
 
 # ----------------------------------------------------------------------------------------
