@@ -29,6 +29,9 @@ QNORM_TOL = 1e-6  # | |q| - 1 |, any method
 CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
 ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
 
+#: the largest |L| a run accepts or keeps: |L|^2 / (2 I) overflows float64 near 1e154
+MAX_MOMENTUM = 1e150
+
 #: a failing body's status, in words
 REASONS = {S.STATUS_NONFINITE: "non-finite state",
            S.STATUS_NO_CONVERGENCE: "DMV equation not solved",
@@ -216,10 +219,23 @@ def warn_invariants(traj: Trajectory, stacklevel: int) -> Trajectory:
                       InvariantWarning, stacklevel=stacklevel)
         return traj
     if problems:
-        warnings.warn(f"{traj.method.name}: " + "; ".join(problems)
-                      + " (the step may be too large for this scene, or the method does "
-                        "not keep this invariant)", InvariantWarning, stacklevel=stacklevel)
+        drifts = [p for p in problems if not p.startswith(_OWN_REASON)]
+        own = [p[len(_OWN_REASON):] for p in problems if p.startswith(_OWN_REASON)]
+        text = "; ".join(drifts)
+        if drifts:
+            text += (" (the step may be too large for this scene, or the method does not "
+                     "keep this invariant)")
+        warnings.warn(f"{traj.method.name}: " + "; ".join([text] * bool(drifts) + own),
+                      InvariantWarning, stacklevel=stacklevel)
     return traj
+
+
+#: marks a problem that carries its own reason (not a drift the step size explains)
+_OWN_REASON = "\0"
+
+#: an energy rise in a dissipative scene above its lowest value so far, relative to the
+#: initial energy, that warns for any method (the energy can only fall)
+DISSIPATIVE_RISE_TOL = ENERGY_TOL
 
 
 def _invariant_problems(traj: Trajectory) -> list[str]:
@@ -242,11 +258,18 @@ def _invariant_problems(traj: Trajectory) -> list[str]:
         if bad.any():
             i = int(np.argmax(bad))
             who = f"{int(bad.sum())} of {len(bad)} bodies (e.g. body {i}): " if ens else ""
-            out.append(who + words(i))
+            text = words(i)
+            own = text.startswith(_OWN_REASON)  # (the mark stays first)
+            out.append(_OWN_REASON * own + who + text[own:])
 
     qn = np.linalg.norm(q[:, -1], axis=1)
     report(~(np.abs(qn - 1.0) <= QNORM_TOL),
            lambda i: f"|q| = {qn[i]:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    size = np.max(np.abs(L[:, -1]), axis=1)
+    report(~(size <= MAX_MOMENTUM),
+           lambda i: f"{_OWN_REASON}|L| reached {size[i]:.3g} at the end, beyond "
+                     f"{MAX_MOMENTUM:.0e}: the torque drove L out of float64's range (the "
+                     f"kinetic energy overflows; the end state is not to be trusted)")
     if method.keeps_casimir and not caps.torque:
         g0, g1 = np.linalg.norm(L[:, 0], axis=1), np.linalg.norm(L[:, -1], axis=1)
         report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
@@ -259,16 +282,52 @@ def _invariant_problems(traj: Trajectory) -> list[str]:
         ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
         V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[..., None]))
         V = np.broadcast_to(V, ends.shape[:2])
+        finite = np.isfinite(V).all(axis=1)
+        report(~finite,
+               lambda i: f"{_OWN_REASON}the scene's potential is not finite (V = "
+                         f"{V[i, 0]:.6g} at the start, {V[i, 1]:.6g} at the end), so the "
+                         f"energy could not be checked: check potential(q) at these "
+                         f"orientations")
         e0, e1 = T0 + V[:, 0], T1 + V[:, 1]
         scale = T0 + np.abs(V[:, 0])
-        report((scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
+        report(finite & (scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
                lambda i: f"the energy went from {e0[i]:.6g} to {e1[i]:.6g}, more than "
                          f"{ENERGY_TOL:.0%} of its scale {scale[i]:.3g}")
-    if caps.dissipative and not caps.torque and method.keeps_casimir:  # (a torque may add)
-        report(T1 > T0 * (1.0 + 1e-9),
-               lambda i: f"the energy grew from {T0[i]:.6g} to {T1[i]:.6g} in a dissipative "
-                         f"scene")
+    if caps.dissipative and not caps.torque:  # (a torque may add energy)
+        rise, k = _dissipative_rise(L, moments)
+        report((T1 > T0 * (1.0 + 1e-9)) | (rise > DISSIPATIVE_RISE_TOL * T0),
+               lambda i: _rose_words(traj.t, T0[i], T1[i], rise[i], k[i]))
     return out
+
+
+def _dissipative_rise(L: np.ndarray, moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For ``L`` ``(N, n, 3)``: each body's largest rise of the kinetic energy above its
+    lowest value at an earlier sample, and the sample where it is reached (in chunks of
+    bodies: a few arrays ``(chunk, n)`` at a time)."""
+    N, n = L.shape[:2]
+    rise, where = np.zeros(N), np.zeros(N, dtype=np.int64)
+    if n < 3:  # the end-to-start comparison says it all
+        return rise, where
+    chunk = max(1, (1 << 20) // n)
+    inv = 0.5 / np.broadcast_to(moments, (N, 3))
+    for a in range(0, N, chunk):
+        b = min(N, a + chunk)
+        T = np.einsum("knj,kj->kn", L[a:b] ** 2, inv[a:b])
+        up = T[:, 1:] - np.minimum.accumulate(T, axis=1)[:, :-1]
+        up = np.where(np.isfinite(up), up, -np.inf)  # failed bodies' NaN samples
+        where[a:b] = np.argmax(up, axis=1) + 1
+        rise[a:b] = np.maximum(up[np.arange(b - a), where[a:b] - 1], 0.0)
+    return rise, where
+
+
+def _rose_words(t: np.ndarray, T0: float, T1: float, rise: float, k: int) -> str:
+    """The words of an energy that rose in a dissipative scene."""
+    if T1 > T0 * (1.0 + 1e-9):
+        return (f"the energy rose from {T0:.6g} to {T1:.6g} in a dissipative scene (whose "
+                f"energy can only fall)")
+    return (f"the energy rose by {rise:.3g} ({rise / T0:.1%} of its initial {T0:.6g}) above "
+            f"its lowest earlier value by t = {float(t[k]):.6g} in a dissipative scene "
+            f"(whose energy can only fall): the end state is not to be trusted")
 
 
 def _one_body_problems(traj: Trajectory) -> list[str]:
@@ -298,14 +357,19 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
             V0, V1 = _end_potentials(scene, q0, q1, float(traj.t[0]), float(traj.t[-1]))
         e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
         if not (math.isfinite(V0) and math.isfinite(V1)):
-            out.append(f"the potential is not finite (V = {V0:.6g} at the start, {V1:.6g} at "
-                       f"the end), so the energy could not be checked")
+            out.append(f"{_OWN_REASON}the scene's potential is not finite (V = {V0:.6g} at "
+                       f"the start, {V1:.6g} at the end), so the energy could not be "
+                       f"checked: check potential(q) at these orientations")
         elif scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
             out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
                        f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
-    if (caps.dissipative and not caps.torque and method.keeps_casimir
-            and T1 > T0 * (1.0 + 1e-9)):
-        out.append(f"the energy grew from {T0:.6g} to {T1:.6g} in a dissipative scene")
+    if caps.dissipative and not caps.torque:  # every method (a torque may add energy)
+        rise = k = 0
+        if len(traj.t) > 2:
+            r, w = _dissipative_rise(traj.L[None], np.asarray(scene.moments, dtype=float))
+            rise, k = float(r[0]), int(w[0])
+        if T1 > T0 * (1.0 + 1e-9) or rise > DISSIPATIVE_RISE_TOL * T0:
+            out.append(_rose_words(traj.t, T0, T1, rise, k))
     return out
 
 
@@ -329,15 +393,34 @@ def _torque_is_finite(model, state, times, u=None, i: int = 0) -> bool:
     return all(torque_failure(model, state, t, u, i)[1] is None for t in times)
 
 
+def input_sizes(model, exc: BaseException | None = None) -> str:
+    """For an ``IndexError`` of a user torque (``exc``; any exception when ``None``): how
+    many entries its inputs ``u`` and ``p`` hold, as ``" (u has 2 entries ...)"``; an
+    empty string otherwise."""
+    if exc is not None and not isinstance(exc, IndexError):
+        return ""
+    words = []
+    if model.controls:
+        words.append(f"u has {model.controls} entries (controls={model.controls})")
+    if model.takes_params:
+        words.append(f"p has {model.params.shape[-1]} entries (a row of params)")
+    return f" ({'; '.join(words)})" if words else ""
+
+
 def torque_failure(model, state, t, u=None, i: int = 0):
     """What is wrong with body ``i``'s user torque at ``state`` and time ``t``:
-    ``(exception or None, words)``, ``words`` None when it gives three finite numbers."""
+    ``(exception or None, words)``, ``words`` None when it gives three finite numbers.
+    A scene's own torque model (no Python function: uniform gravity, gravity gradient)
+    that the kernel found non-finite is described as such."""
+    if model.function is None:
+        return None, (f"the scene's torque model (code {model.code}) gave non-finite values "
+                      f"(its parameters overflow float64 at this state)")
     sig = model.signature
     q, m = state[:4], state[4:]
     try:
         value = np.asarray(model(t, q, m, u, i), dtype=float)
     except Exception as exc:
-        return exc, f"the torque {sig} raised {type(exc).__name__} ({exc})"
+        return exc, f"the torque {sig} raised {type(exc).__name__} ({exc}){input_sizes(model, exc)}"
     if value.shape != (3,):
         return None, f"the torque {sig} returned shape {value.shape}, not 3 numbers,"
     if not np.all(np.isfinite(value)):

@@ -33,12 +33,14 @@ import numpy as np
 from liebody import _methods
 from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distributed use them
     FIRST_SLICE,
+    MAX_MOMENTUM,
     QNORM_TOL,
     SLICE_SECONDS,
     _end_potentials,
     _torque_is_finite,
     diagnostic_reference,
     diagnostics_dict,
+    input_sizes,
     one_body_args,
     raise_torque_error,
     time_slices,
@@ -64,8 +66,6 @@ __all__ = ["ConvergenceError", "integrate"]
 SAMPLE_BYTES = 64
 #: the largest step count (float64 step indices stay exact below 2^53)
 MAX_STEPS = 2**53
-#: the largest |L| accepted: |L|^2 / (2 I) overflows float64 near 1e154
-MAX_MOMENTUM = 1e150
 #: bytes an ensemble's run allocates per body beyond its samples and its per-body stage
 #: parameters: state, records, diagnostics, the plan's set-up (measured 610-811 B with
 #: diagnostics for splitting2/8, rattle and dmv8; ``tests/faults/test_memory.py``)
@@ -293,7 +293,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     t0
         The time of the initial state (default 0): the samples are at ``t0 + k dt`` and a
         time-dependent torque sees that clock, so a run can continue where another
-        ended.
+        ended. ``t0 + dt`` must differ from ``t0`` in float64 (a ``t0`` so large that it
+        does not would freeze the clock: ``ValueError``).
     simd
         Ensembles only: the kernels that step a block of bodies at once in SIMD
         registers (a polynomial sine and cosine instead of the C library's, about 10x
@@ -310,17 +311,27 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     -------
     Trajectory
         ``t``, ``q``, ``L`` (body) and derived diagnostics. A run whose state becomes
-        non-finite (a baseline that blows up, an overflowing state) returns the samples
-        before the failure, sets ``failed_at`` and ``status = "failed"`` and emits a
-        ``RuntimeWarning``. A complete run whose invariants left their tolerance by the
+        non-finite (a baseline that blows up, an overflowing state), or whose final
+        ``|L|`` exceeds ``MAX_MOMENTUM`` (1e150: a torque that drives ``L`` out of
+        float64's range; the samples are cut before the first such sample), returns the
+        samples before the failure, sets ``failed_at`` and ``status = "failed"`` and emits
+        a ``RuntimeWarning``. A complete run whose invariants left their tolerance by the
         end (``|q|`` off 1 by more than 1e-6; ``|L|`` for methods that keep it on a
         torque-free scene; the energy, by more than 1 %, for symplectic methods on a
-        conservative scene) emits an :class:`~liebody.errors.InvariantWarning`.
+        conservative scene; for any method on a dissipative scene, an energy that rose
+        from the first to the last sample, or by more than 1 % of its initial value above
+        its lowest earlier sample) emits an :class:`~liebody.errors.InvariantWarning`;
+        a potential that is not finite at the ends says so in that warning. The exact
+        flow asked for a phase ``|omega| t`` beyond ``PHASE_LIMIT`` (1e15 rad, where
+        float64 rounds the angle to about 0.2 rad) emits a ``RuntimeWarning``: the
+        samples' phase is lost.
 
     Raises
     ------
     ValueError, TypeError
-        Invalid arguments (each message names the argument and the rule).
+        Invalid arguments (each message names the argument and the rule), including a
+        user torque that depends on ``L`` in a scene that promises ``orientation_only``
+        (checked by a second call at ``L = 2 L0 + 1`` on the initial state).
     ConvergenceError
         An implicit equation was not solved (RATTLE/DMV at ``h |omega|`` beyond about 1,
         or the implicit kick of a stiff momentum-dependent torque); ``.trajectory`` holds
@@ -352,6 +363,12 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     dt = as_positive_float("dt", dt)
     if t0 != 0.0:
         t0 = float(as_float_array("t0", t0, shape=()))
+        if t0 + dt == t0:
+            raise ValueError(
+                f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64 (times near t0 are "
+                f"{math.ulp(t0):.3g} apart), so the clock could not advance. Measure the "
+                f"time from a later origin (subtract a reference time from t0), or use a "
+                f"dt above {0.5 * math.ulp(t0):.3g}")
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(progress, bool | np.bool_):
@@ -369,15 +386,19 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     model = scene.torque_model()
     _check_potential(scene, model, q_init, n_bodies, t0)
     u = as_controls(scene, controls, n_bodies)
+    promise = model.function is not None and "momentum" not in scene.capabilities.torque
+    if method.sampled:
+        _check_phase(scene, m_init, n_steps * dt)
     if n_bodies is None:
-        _check_torque(model, q_init, m_init, u, t0)
+        _check_torque(model, q_init, m_init, u, t0, orientation_only=promise)
         t = _sample_times(n_steps, save_every, dt)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
-        _check_torque(model, q_init[0], m_init[0], _first_row(u), t0, ensemble=True)
+        _check_torque(model, q_init[0], m_init[0], _first_row(u), t0, ensemble=True,
+                      orientation_only=promise)
         t = _sample_times(n_steps, save_every, dt, n_bodies,
                           RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m_init, dt))
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
@@ -445,11 +466,16 @@ def _check_potential(scene, model, q0: np.ndarray, n_bodies, t0: float) -> None:
 
 
 def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None,
-                  t0: float = 0.0, ensemble: bool = False) -> None:
+                  t0: float = 0.0, ensemble: bool = False,
+                  orientation_only: bool = False) -> None:
     """A user torque is called once on the initial state: three numbers, or a clear error
     before the run starts. One body: they must be finite too. An ensemble (``q0``, ``m0``,
     ``u`` of its body 0): a torque that raises or is not finite at one body's state fails
-    that body in the run, whichever body it is; only a wrong shape refuses the run."""
+    that body in the run, whichever body it is; only a wrong shape refuses the run.
+
+    ``orientation_only``: the scene promises a torque that does not depend on ``L``; a
+    second call at ``L = 2 L0 + 1`` (same ``t``, ``q``, ``u``) must give the same numbers,
+    else ``ValueError`` (a false promise ran at order 1 without a word)."""
     if model.function is None:
         return
     sig = model.signature
@@ -459,13 +485,72 @@ def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None,
         if ensemble:
             return
         raise TorqueError(f"the torque {sig} raised {type(exc).__name__} on the "
-                          f"initial state: {exc}", step=0, t=t0) from exc
+                          f"initial state: {exc}{input_sizes(model, exc)}", step=0,
+                          t=t0) from exc
     if value.shape != (3,):
         raise ValueError(f"the torque {sig} must return 3 numbers, got shape "
                          f"{value.shape} on the initial state")
-    if not ensemble and not all(map(math.isfinite, value.tolist())):
+    finite = all(map(math.isfinite, value.tolist()))
+    if not ensemble and not finite:
         raise TorqueError(f"the torque {sig} returned non-finite values "
                           f"{value.tolist()} on the initial state", step=0, t=t0)
+    if orientation_only and finite:
+        _check_orientation_only(model, q0, m0, u, t0, value)
+
+
+def _check_orientation_only(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u,
+                            t0: float, value: np.ndarray) -> None:
+    """The torque at ``L = 2 L0 + 1`` must equal ``value``, its value at ``L0``."""
+    other_L = 2.0 * m0 + 1.0
+    why = ("orientation_only=True promises a torque of t, q (and u) alone, whose kicks "
+           "are then explicit and exact; for a torque that depends on L, pass "
+           "orientation_only=False (the default: implicit kicks, the method's order kept)")
+    try:
+        other = np.asarray(model(t0, q0, other_L, u), dtype=float)
+    except Exception as exc:
+        raise ValueError(
+            f"the torque {model.signature} depends on L though orientation_only=True: it "
+            f"raised {type(exc).__name__} ({exc}) at L = 2 L0 + 1 = {other_L.tolist()} "
+            f"(same t and q), not at L0. {why}") from exc
+    if other.shape != (3,) or other.tolist() != value.tolist():
+        raise ValueError(
+            f"the torque {model.signature} depends on L though orientation_only=True: at "
+            f"the initial t and q it gives {value.tolist()} at L0 = {m0.tolist()} and "
+            f"{other.tolist()} at L = 2 L0 + 1. {why}")
+
+
+#: |omega| t beyond which the exact flow's phase is lost: float64 rounds an angle of
+#: 1e15 rad to about 0.1 rad
+PHASE_LIMIT = 1e15
+
+
+def _check_phase(scene, m0: np.ndarray, duration: float) -> None:
+    """Warn when the exact flow is asked for a phase ``|omega| t`` beyond float64's
+    resolution (:data:`PHASE_LIMIT`)."""
+    if m0.ndim == 1 and np.ndim(scene.moments) == 1:
+        L1, L2, L3 = m0.tolist()
+        I1, I2, I3 = scene.moments.tolist()
+        try:
+            w = math.hypot(L1 / I1, L2 / I2, L3 / I3)
+        except OverflowError:  # |L| / I beyond float64
+            w = math.inf
+        where = ""
+    else:
+        with np.errstate(over="ignore"):
+            ws = np.linalg.norm(m0 / np.asarray(scene.moments, dtype=float), axis=-1)
+        i = int(np.argmax(ws))
+        w = float(ws.flat[i])
+        where = f" (body {i})"
+    phase = w * duration
+    if not phase > PHASE_LIMIT:
+        return
+    warnings.warn(
+        f"exact: the run reaches |omega| t = {phase:.3g} rad{where} (|omega| = {w:.3g}, "
+        f"t = {duration:.3g} after t0). float64 rounds an angle that large to about "
+        f"{phase * 2.0**-52:.2g} rad, more than {PHASE_LIMIT * 2.0**-52:.2g} rad: the phase "
+        f"of the motion (the orientation about L, and L along its orbit) is lost beyond "
+        f"t = {PHASE_LIMIT / w:.3g} (|L|, the energy and |q| are still right). Shorten the "
+        f"run, or rescale the units of time", RuntimeWarning, stacklevel=3)
 
 
 def as_controls(scene, controls, n_bodies: int | None, name: str = "controls"
@@ -591,6 +676,9 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
+            L1, L2, L3 = self.m_out[-1].tolist()
+            if not max(abs(L1), abs(L2), abs(L3)) <= MAX_MOMENTUM:
+                return self._overflowed()
             self.q_out.flags.writeable = self.m_out.flags.writeable = False  # ours: no view
             traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene, self.method,
                               self.dt, info=self.info, diagnostics=self._diagnostics())
@@ -621,6 +709,24 @@ class _Run:
             f"{self.method.name}: the state became non-finite at step {step + 1:,} "
             f"(t = {t_fail:.6g}); returning the {n_keep:,} samples before it "
             f"(Trajectory.failed_at is set)", RuntimeWarning, stacklevel=4)
+        return traj
+
+    def _overflowed(self) -> Trajectory:
+        """The run ended with ``|L|`` beyond :data:`MAX_MOMENTUM` (a torque that drives it
+        out of float64's range): the samples before the first such sample are returned,
+        with ``failed_at`` set and a warning, as for a non-finite state."""
+        size = np.max(np.abs(self.m_out), axis=1)
+        k = int(np.argmax(~(size <= MAX_MOMENTUM)))
+        step = self._step_of_sample(k)
+        t_fail = self.t0 + float(self.t[k])
+        traj = self._partial(k, "failed", failed_at=t_fail)
+        warnings.warn(
+            f"{self.method.name}: |L| reached {size[k]:.3g} by step {step:,} (t = "
+            f"{t_fail:.6g}), beyond {MAX_MOMENTUM:.0e}: the torque drove L out of float64's "
+            f"range (the kinetic energy |L|^2/(2 I) overflows, and the rotation per step "
+            f"is beyond resolution); returning the {k:,} samples before it "
+            f"(Trajectory.failed_at is set). Check the torque's size, or rescale the units",
+            RuntimeWarning, stacklevel=4)
         return traj
 
     def _failed(self, status: int, done: int, saved: int, state: np.ndarray) -> Trajectory:

@@ -394,6 +394,7 @@ class HeavyTop(Scene):
                 f"the body ({body.shape[0] if body.shape else 1} bodies), mass "
                 f"{np.shape(mass_arr)}, cm {cm_arr.shape} and g {np.shape(g_arr)} must "
                 f"describe the same number of bodies") from None
+        _check_weight(mass_arr, g_arr, cm_arr)
         cm_arr.flags.writeable = False
         object.__setattr__(self, "mass", mass_arr)
         object.__setattr__(self, "cm", cm_arr)
@@ -464,6 +465,9 @@ class TorqueBody(Scene):
         torque, and consecutive kicks are merged. Otherwise (the default) a step closes
         with the adjoint, implicit kick ``L' = L + dt * torque(t, q, L')`` (solved by
         fixed-point iteration), which keeps the splittings symmetric.
+        :func:`liebody.integrate` checks the promise at the start of each run (the torque
+        at ``L0`` and at ``2 L0 + 1``, same ``t`` and ``q``, must agree; else
+        ``ValueError``).
     free_flow
         As for :class:`HeavyTop`.
 
@@ -568,7 +572,9 @@ class ControlledBody(TorqueBody):
         Number of control inputs, 1 to 6. ``u`` holds exactly that many: numba does not
         check bounds, so a torque that reads beyond ``u[controls - 1]`` reads memory
         that is not ``u`` (compile the torque with ``@njit(boundscheck=True)`` while
-        developing it to catch that).
+        developing it to catch that). The constructor calls the torque's Python code once
+        on ``u = 0`` and refuses one that raises ``IndexError`` there (``ValueError``
+        saying how many entries ``u`` has).
     potential, params, orientation_only, free_flow
         As for :class:`TorqueBody` (with ``params``, ``torque(t, q, L, p, u)``).
         ``orientation_only=True`` promises that the torque does not depend on ``L`` (``u``
@@ -778,6 +784,30 @@ class DampedBody(Scene):
         return self.eps
 
 
+def _check_weight(mass, g, cm: np.ndarray) -> None:
+    """A heavy top's weight arm ``mass * g * cm`` and its length must be finite (the
+    kernels' torque and potential, and the energy, are built from them)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        mg = np.asarray(mass, dtype=float) * np.asarray(g, dtype=float)
+        arm = mg[..., None] * cm
+        size = np.asarray(mg) * np.linalg.norm(cm, axis=-1)
+        bad = ~(np.isfinite(arm).all(axis=-1) & np.isfinite(size))
+    if not bad.any():
+        return
+    if bad.ndim == 0:
+        who, m, gg, c = "", float(mass), float(g), cm
+    else:
+        i = int(np.argmax(bad))
+        who = f"body {i}: "
+        m = float(np.broadcast_to(mass, bad.shape)[i])
+        gg = float(np.broadcast_to(g, bad.shape)[i])
+        c = np.broadcast_to(cm, (*bad.shape, 3))[i]
+    raise ValueError(
+        f"{who}mass * g * |cm| must be finite (the weight arm of the torque and the "
+        f"potential), but mass = {m:.6g}, g = {gg:.6g}, cm = {c.tolist()} overflow float64; "
+        f"rescale the units of mass, length or time")
+
+
 def _user_params(params, body: RigidBody) -> np.ndarray:
     """A user torque's parameters: ``(k,)`` shared by every body or ``(N, k)`` one row per
     body, finite float64 (read-only copy)."""
@@ -795,7 +825,15 @@ def _user_params(params, body: RigidBody) -> np.ndarray:
 
 
 def _check_user_torque(torque, controls: int, params=None) -> None:
-    """A user torque is an ``@njit`` function giving 3 numbers on a test call."""
+    """A user torque is an ``@njit`` function giving 3 real numbers on a test call.
+
+    Refused: not a numba function (``TypeError``); compiled in object mode, or returning
+    complex, string or object values (``TypeError``: the kernels' callback cannot call
+    it); a test call that raises or gives another shape (``ValueError``); and, with
+    controls or parameters, Python code that raises ``IndexError`` on the test inputs
+    (``ValueError`` saying how many entries ``u`` and ``p`` have: compiled, numba does not
+    check bounds and would read other memory).
+    """
     args = "t, q, L" + (", p" if params is not None else "") + (", u" if controls else "")
     from numba.core.config import DISABLE_JIT  # @njit gives plain functions then
 
@@ -808,11 +846,48 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
     if controls:
         test += (np.zeros(controls),)
     try:
-        tau = np.asarray(torque(*test), dtype=float)
+        tau = np.asarray(torque(*test))
+    except IndexError as exc:
+        raise ValueError(f"torque({args}) failed on a test call: IndexError: {exc} "
+                         f"({_input_sizes(controls, params)})") from exc
     except Exception as exc:
         raise ValueError(f"torque({args}) failed on a test call: {exc}") from exc
+    overloads = getattr(torque, "overloads", {})
+    if (getattr(torque, "targetoptions", {}).get("forceobj")
+            or any(getattr(c, "objectmode", False) for c in overloads.values())):
+        raise TypeError(f"torque({args}) is compiled in numba's object mode: the torque must "
+                        f"return real float64 numbers from nopython code (use @njit, not "
+                        f"@jit(forceobj=True)), which the kernels can call")
+    if tau.dtype.kind not in "biuf":
+        raise TypeError(f"torque({args}) must return real float64 numbers (3 of them), got "
+                        f"dtype {tau.dtype} on a test call (complex, string and object "
+                        f"values cannot be a torque)")
     if tau.shape != (3,):
         raise ValueError(f"torque({args}) must return 3 numbers, got shape {tau.shape}")
+    py_func = getattr(torque, "py_func", None)
+    if py_func is not None and (controls or params is not None):
+        # numba does not check bounds: the Python function, called on the same NumPy
+        # arrays, raises IndexError where the compiled one reads memory beyond u or p
+        try:
+            py_func(*test)
+        except IndexError as exc:
+            raise ValueError(
+                f"torque({args}) reads beyond its inputs: its Python code raises IndexError "
+                f"({exc}) on a test call, where the compiled torque would read memory that "
+                f"is not its input ({_input_sizes(controls, params)}; compile it with "
+                f"@njit(boundscheck=True) to find the line)") from exc
+        except Exception:  # code that only runs compiled: the compiled test call passed
+            pass
+
+
+def _input_sizes(controls: int, params) -> str:
+    """How many entries ``u`` and ``p`` hold, for messages."""
+    words = []
+    if controls:
+        words.append(f"u has {controls} entries (controls={controls})")
+    if params is not None:
+        words.append(f"p has {params.shape[-1]} entries (a row of params)")
+    return "; ".join(words) or "q has 4 entries and L 3"
 
 
 def _positive(name: str, value):
