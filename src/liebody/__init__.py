@@ -41,6 +41,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "ControlledBody": ("liebody.scenes", "ControlledBody"),
     "GravityGradient": ("liebody.scenes", "GravityGradient"),
     "orbits": ("liebody.orbits", None),
+    "attitude": ("liebody.attitude", None),
     "Stepper": ("liebody._stepper", "Stepper"),
     "lagrange_top": ("liebody.lagrange_top", None),
     "analysis": ("liebody.analysis", None),
@@ -71,6 +72,7 @@ __all__ = sorted(_LAZY) + ["__version__"]
 if TYPE_CHECKING:  # pragma: no cover
     from liebody import (  # noqa: F401
         analysis,
+        attitude,
         bodies,
         distributed,
         errors,
