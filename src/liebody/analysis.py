@@ -20,6 +20,12 @@ closed form (source)                    measured from a :class:`~liebody.Traject
 H&F topics used: the force-free symmetric top (body frame and inertial frame),
 stability of rotation about the principal axes, Euler's equations.
 
+Spacecraft and planets: :func:`dual_spin_stable` (Hughes, *Spacecraft Attitude
+Dynamics*, 1986, ch. 7), :func:`gravity_gradient_stability` of an Earth-pointing
+satellite (Hughes 1986, ch. 9; the orbital frame of :mod:`liebody.attitude`), and the
+forced precession of a planet's spin axis, :func:`forced_precession_constant` and
+:func:`forced_precession_rate` (Goldstein, Poole & Safko 2002, sect. 5.8; Ward 1974).
+
 Conventions: body-frame ``omega`` and ``L`` (principal axes) unless named ``_space``;
 rates in radians per unit of the trajectory's time; float64. Invalid input raises
 ``ValueError``/``TypeError`` naming the argument and the rule.
@@ -27,6 +33,7 @@ rates in radians per unit of the trajectory's time; float64. Invalid input raise
 
 from __future__ import annotations
 
+import cmath
 import math
 import numbers
 from typing import NamedTuple
@@ -38,6 +45,7 @@ from liebody.rigid_body import moments_equal
 
 __all__ = [
     "Cones",
+    "GravityGradientStability",
     "Stability",
     "axis_role",
     "chandler_period",
@@ -45,6 +53,9 @@ __all__ = [
     "dual_spin_stable",
     "fit_growth_rate",
     "flip_period",
+    "forced_precession_constant",
+    "forced_precession_rate",
+    "gravity_gradient_stability",
     "measured_space_precession_rate",
     "precession_rate",
     "space_precession_rate",
@@ -915,3 +926,261 @@ def chandler_period(body=None) -> float:
     A, B = (float(I[k]) for k in range(3) if k != c)
     C = float(I[c])
     return math.sqrt(A * B / ((C - A) * (C - B)))
+
+
+# ----------------------------------------------------------------------------------------
+# gravity-gradient stability of an Earth-pointing satellite (Hughes 1986, ch. 9)
+# ----------------------------------------------------------------------------------------
+
+
+class GravityGradientStability(NamedTuple):
+    """Linear stability of a rigid satellite resting in the orbital (LVLH) frame of a
+    circular orbit; see :func:`gravity_gradient_stability`.
+
+    Attributes
+    ----------
+    pitch_stable : bool
+        The pitch libration (about the orbit normal) is a stable oscillation.
+    roll_yaw_stable : bool
+        The coupled roll-yaw motion is a stable oscillation (both roots of the quartic
+        purely imaginary and distinct).
+    region : str
+        ``"Lagrange"`` (stable, ``k1 > k3 > 0``: ``I_pitch > I_roll > I_yaw``),
+        ``"DeBra-Delp"`` (stable with ``k1 < 0``, ``k3 < 0``:
+        ``I_roll > I_yaw > I_pitch``) or ``"unstable"`` (anything else, the boundaries
+        included).
+    pitch_frequency : float or None
+        ``sqrt(3 (I_roll - I_yaw) / I_pitch)``, in units of the mean motion ``n``, when
+        ``pitch_stable``; else ``None``.
+    roll_yaw_frequencies : tuple of two floats, or None
+        The two roll-yaw frequencies ``(slow, fast)`` in units of ``n`` when
+        ``roll_yaw_stable``; else ``None``.
+    growth_rate : float
+        The largest real part of the six eigenvalues of the linearised motion, in units
+        of ``n``: ``0.0`` when stable (and on the marginal boundaries), the exponential
+        growth rate of the fastest-growing mode otherwise.
+    k1, k3 : float
+        The inertia ratios ``k1 = (I_pitch - I_yaw)/I_roll`` and
+        ``k3 = (I_pitch - I_roll)/I_yaw``.
+    """
+
+    pitch_stable: bool
+    roll_yaw_stable: bool
+    region: str
+    pitch_frequency: float | None
+    roll_yaw_frequencies: tuple[float, float] | None
+    growth_rate: float
+    k1: float
+    k3: float
+
+
+#: relative tolerance on ``b^2 - 4c`` below which the roll-yaw roots count as double
+#: (marginal: a double root grows linearly)
+_DOUBLE_ROOT_RTOL = 1e-12
+
+
+def gravity_gradient_stability(moments) -> GravityGradientStability:
+    """Linear stability of a satellite that keeps its principal axes in the orbital frame.
+
+    Hughes, *Spacecraft Attitude Dynamics* (Wiley, 1986), ch. 9 (gravity-gradient
+    stabilisation); Kane, Likins & Levinson, *Spacecraft Dynamics* (McGraw-Hill, 1983);
+    Wie, *Space Vehicle Dynamics and Control*, 2nd ed. (AIAA, 2008). The stable
+    region with ``k1, k3 < 0`` is the one found by DeBra & Delp (J. Astronaut. Sci. 8,
+    1961).
+
+    **Convention.** A circular orbit of mean motion ``n``; the orbital (LVLH) frame has
+    axis 1 along the velocity (roll), axis 2 along the *negative* orbit normal (pitch),
+    axis 3 towards the Earth's centre (yaw, nadir) (:func:`liebody.attitude.lvlh_axes`).
+    The frame turns at ``omega_o = -n e2``. ``moments = (I1, I2, I3) =
+    (I_roll, I_pitch, I_yaw)`` are the principal moments along these three axes in the
+    equilibrium, in which the body rests in the orbital frame (its inertial angular
+    velocity is ``-n e2``, one revolution per orbit).
+
+    **Linearisation.** With small roll, pitch and yaw angles ``phi, theta, psi`` of the
+    body relative to the orbital frame, the body's angular velocity is
+    ``omega = (phi' - n psi, theta' - n, psi' + n phi)`` and the nadir in body axes is
+    ``c = (-theta, phi, 1)`` to first order, so the gravity-gradient torque
+    ``3 n^2 c x (I c)`` is ``3 n^2 ((I3 - I2) phi, (I3 - I1) theta, 0)``. Euler's
+    equations ``I omega' + omega x I omega = 3 n^2 c x I c`` then read, to first order,
+
+    * pitch: ``I2 theta'' + 3 n^2 (I1 - I3) theta = 0``, stable iff ``I1 > I3``
+      (``I_roll > I_yaw``), libration frequency ``sqrt(3 (I1 - I3) / I2) n``. With the
+      ratios below, ``I1 > I3`` is ``k1 > k3`` for every physical body (the triangle
+      inequality ``I1 + I3 > I2`` holds): ``k1 - k3 = (I1 - I3)(I1 + I3 - I2)/(I1 I3)``
+      and ``3 (I1 - I3)/I2 = 3 (k1 - k3)/(1 - k1 k3)``;
+    * roll-yaw: ``phi'' + 4 k1 n^2 phi - (1 - k1) n psi' = 0`` and
+      ``psi'' + k3 n^2 psi + (1 - k3) n phi' = 0`` with the inertia ratios
+      ``k1 = (I2 - I3)/I1`` and ``k3 = (I2 - I1)/I3``. Their characteristic equation,
+      in units of ``n``, is ``s^4 + b s^2 + c = 0`` with ``b = 1 + 3 k1 + k1 k3`` and
+      ``c = 4 k1 k3``: both roots ``s^2`` are real, negative and distinct (a stable
+      oscillation at ``|s|``) iff ``b > 0``, ``c > 0`` and ``b^2 - 4 c > 0``.
+
+    Both stable: the Lagrange region ``k1 > k3 > 0`` (``I_pitch > I_roll > I_yaw``: the
+    least moment along the local vertical, the largest along the orbit normal; all of it
+    is roll-yaw stable for physical bodies) or the DeBra-Delp region (``k1 < 0``,
+    ``k3 < 0``, ``k1 > k3`` and the roll-yaw conditions: ``I_roll > I_yaw > I_pitch``
+    with ``|k1|`` small), which is stable only linearly (energy dissipation destabilises
+    it: it is not a minimum of the Jacobi integral).
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        ``(I_roll, I_pitch, I_yaw)`` (> 0), in the order of the orbital axes above.
+
+    Returns
+    -------
+    GravityGradientStability
+        The two verdicts, the region, the frequencies (in units of ``n``) when stable,
+        the growth rate (in units of ``n``) and ``k1``, ``k3``. Boundaries (equal moments
+        within ``1e-10`` relative, making a root zero, or a double roll-yaw root) are
+        marginal: not stable, ``growth_rate`` from the remaining modes.
+    """
+    I = _as_moments("moments", moments)
+    I1, I2, I3 = (float(v) for v in I)
+    scale = max(I1, I2, I3)
+    k1 = 0.0 if moments_equal(I2, I3, scale) else (I2 - I3) / I1
+    k3 = 0.0 if moments_equal(I2, I1, scale) else (I2 - I1) / I3
+
+    # pitch: theta'' = -3 (I1 - I3)/I2 theta
+    pitch_equal = moments_equal(I1, I3, scale)
+    p = 0.0 if pitch_equal else 3.0 * (I1 - I3) / I2
+    pitch_stable = p > 0.0
+    pitch_frequency = math.sqrt(p) if pitch_stable else None
+    growth = math.sqrt(-p) if p < 0.0 else 0.0
+
+    # roll-yaw: s^4 + b s^2 + c = 0
+    b = 1.0 + 3.0 * k1 + k1 * k3
+    c = 4.0 * k1 * k3
+    disc = b * b - 4.0 * c
+    double = abs(disc) <= _DOUBLE_ROOT_RTOL * max(b * b, abs(4.0 * c), 1e-300)
+    roll_yaw_stable = b > 0.0 and c > 0.0 and disc > 0.0 and not double
+    roll_yaw_frequencies = None
+    if roll_yaw_stable:
+        root = math.sqrt(disc)
+        fast2 = 0.5 * (b + root)
+        slow2 = c / fast2  # the product of the two roots s^2 is c: no cancellation
+        roll_yaw_frequencies = (math.sqrt(slow2), math.sqrt(fast2))
+    else:
+        root = cmath.sqrt(disc)
+        for mu in (0.5 * (-b + root), 0.5 * (-b - root)):  # the two roots s^2
+            growth = max(growth, abs(cmath.sqrt(mu).real))
+
+    if pitch_stable and roll_yaw_stable:
+        region = "Lagrange" if (k1 > 0.0 and k3 > 0.0) else "DeBra-Delp"
+    else:
+        region = "unstable"
+    return GravityGradientStability(bool(pitch_stable), bool(roll_yaw_stable), region,
+                                    pitch_frequency, roll_yaw_frequencies, float(growth),
+                                    float(k1), float(k3))
+
+
+# ----------------------------------------------------------------------------------------
+# forced precession of a planet's spin axis (Murray & Dermott 1999; Ward 1974)
+# ----------------------------------------------------------------------------------------
+
+
+def forced_precession_constant(moments, spin: float, GM: float, a: float, e: float = 0.0,
+                               *, axis: int = 2) -> float:
+    """Precession constant ``k`` of a spinning oblate planet's axis, forced by one body on a
+    Kepler orbit.
+
+    Goldstein, Poole & Safko, *Classical Mechanics*, 3rd ed. (Addison-Wesley, 2002),
+    sect. 5.8 (precession of the equinoxes: the orbit-averaged torque on an oblate
+    body); W. R. Ward, "Climatic variations on Mars: 1. Astronomical theory of
+    insolation", J. Geophys. Res. 79 (1974) 3375-3386 (the precession constant with the
+    eccentricity factor); Murray & Dermott, *Solar System Dynamics* (Cambridge
+    University Press, 1999) for the orbit averages:
+
+        ``k = (3/2) (GM / a^3) ((C - A) / C) / spin * (1 - e^2)^(-3/2)``.
+
+    **Derivation.** With the figure axis ``s`` and ``I = A 1 + (C - A) s s^T``, the
+    gravity-gradient torque of a mass ``GM`` at ``r`` (seen from the planet) is
+    ``tau = 3 GM / r^5 r x I r = 3 GM (C - A) (s . r)(r x s) / r^5``. Averaged over the
+    orbit (the axis moves little in one orbit), ``<r r^T / r^5> =
+    (1 - n n^T) <1/r^3> / 2`` with ``n`` the orbit normal and
+    ``<1/r^3> = a^-3 (1 - e^2)^(-3/2)`` (the time average over a Kepler ellipse), so
+    ``<tau> = -(3/2) GM (C - A) a^-3 (1 - e^2)^(-3/2) (n . s)(n x s)``. For fast spin
+    ``L = C spin s`` (the gyroscopic approximation: ``spin`` much faster than the
+    orbital and the precession frequencies) and ``dL/dt = <tau>`` gives
+
+        ``ds/dt = -k cos(eps) (n x s)``, ``cos(eps) = n . s``:
+
+    the spin axis turns about the orbit normal at the rate ``-k cos(eps)`` at a fixed
+    obliquity ``eps`` (:func:`forced_precession_rate`); negative: retrograde, the
+    precession of the equinoxes. ``GM`` is the perturber's own gravitational parameter
+    (for the Sun, ``GM / a^3`` is the square of the mean motion; for the Moon it is not:
+    the mean motion involves the Earth's mass as well).
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Principal moments of the planet (> 0). ``C = moments[axis]`` is the spin axis;
+        the equatorial moment ``A`` is the mean of the other two (exact for a symmetric
+        planet, the spin-averaged value for a triaxial one).
+    spin : float
+        Spin rate about ``axis`` (rad per unit time, > 0).
+    GM : float
+        Gravitational parameter of the perturber (> 0), in the units of ``a`` and time.
+    a : float
+        Semi-major axis of the perturber's orbit relative to the planet (> 0).
+    e : float, default 0.0
+        Eccentricity, ``0 <= e < 1``.
+    axis : {0, 1, 2}, default 2
+        Index of the spin (figure) axis in ``moments``.
+
+    Returns
+    -------
+    float
+        ``k`` in rad per unit time: positive for an oblate planet (``C > A``), negative
+        for a prolate one.
+    """
+    I = _as_moments("moments", moments)
+    w = as_positive_float("spin", spin)
+    GM = as_positive_float("GM", GM)
+    a = as_positive_float("a", a)
+    e = _as_real("e", e)
+    if not 0.0 <= e < 1.0:
+        raise ValueError(f"e (the eccentricity) must be in [0, 1) for a closed orbit, got {e}")
+    c = _as_axis("axis", axis)
+    C = float(I[c])
+    A = 0.5 * (float(I[(c + 1) % 3]) + float(I[(c + 2) % 3]))
+    flattening = 0.0 if moments_equal(C, A, float(np.max(I))) else (C - A) / C
+    # GM / a^3 from mantissas and exponents: a^3 alone overflows for a > 5e102
+    (mg, eg), (ma, ea) = math.frexp(GM), math.frexp(a)
+    tidal = _ldexp("GM / a^3", mg / (ma * ma * ma), eg - 3 * ea)
+    ecc = ((1.0 - e) * (1.0 + e)) ** -1.5
+    k = 1.5 * tidal * flattening / w * ecc
+    if not math.isfinite(k):
+        raise ValueError(f"the precession constant overflows for GM = {GM:g}, a = {a:g}, "
+                         f"spin = {w:g}: rescale the units")
+    return float(k)
+
+
+def forced_precession_rate(moments, spin: float, GM: float, a: float, obliquity: float,
+                           e: float = 0.0, *, axis: int = 2) -> float:
+    """Mean precession rate ``-k cos(obliquity)`` of a planet's spin axis about the normal
+    of the perturber's orbit.
+
+    ``k`` is :func:`forced_precession_constant` (Goldstein, Poole & Safko 2002,
+    sect. 5.8; Ward 1974); the averaged equation ``ds/dt = -k cos(eps) (n x s)`` turns the spin axis
+    ``s`` about the orbit normal ``n`` at this rate, keeping the obliquity ``eps``.
+    Several perturbers (the Sun and the Moon on the Earth) add their rates when their
+    orbits share a plane.
+
+    Parameters
+    ----------
+    moments, spin, GM, a, e, axis
+        As for :func:`forced_precession_constant`.
+    obliquity : float
+        Angle ``eps`` between the spin axis (the direction of the spin angular
+        momentum) and the orbit normal, radians (any finite real).
+
+    Returns
+    -------
+    float
+        The rate in rad per unit time, signed about the orbit normal: negative
+        (retrograde) for an oblate planet with ``eps < 90 deg``.
+    """
+    eps = _as_real("obliquity", obliquity)
+    k = forced_precession_constant(moments, spin, GM, a, e, axis=axis)
+    return float(-k * math.cos(eps))
