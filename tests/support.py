@@ -12,6 +12,7 @@ import numpy as np
 
 import liebody
 import liebody.testing
+from liebody._kernels import stages as S
 
 
 def hlw_body() -> liebody.RigidBody:
@@ -79,7 +80,7 @@ def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: n
     return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
                                 plan.merge_ends, h, 0.0, 0.0, n, 1, True, state, ctl, q_out,
                                 m_out,
-                                torque_addr, plan.model[0], np.zeros(10), np.zeros(3))
+                                torque_addr, plan.model[0], np.zeros(S.DREF_WIDTH), np.zeros(3))
 
 
 def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):

@@ -40,6 +40,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "DampedBody": ("liebody.scenes", "DampedBody"),
     "ControlledBody": ("liebody.scenes", "ControlledBody"),
     "GravityGradient": ("liebody.scenes", "GravityGradient"),
+    "Gyrostat": ("liebody.gyrostat", "Gyrostat"),
     "orbits": ("liebody.orbits", None),
     "attitude": ("liebody.attitude", None),
     "Stepper": ("liebody._stepper", "Stepper"),
@@ -103,6 +104,7 @@ if TYPE_CHECKING:  # pragma: no cover
         InvariantWarning,
         TorqueError,
     )
+    from liebody.gyrostat import Gyrostat  # noqa: F401
     from liebody.rigid_body import RigidBody  # noqa: F401
     from liebody.scenes import (  # noqa: F401
         Capabilities,

@@ -157,18 +157,26 @@ def write_controls(params: np.ndarray, u: np.ndarray) -> None:
         params[..., S.P_U0:S.P_U0 + k] = u
 
 
+def rotor_momentum(scene) -> np.ndarray:
+    """A gyrostat's rotor momentum ``l`` (body frame; ``(3,)`` or ``(N, 3)``), zeros for a
+    rigid body: the kinetic energy is ``(L - l)^T I^-1 (L - l) / 2``."""
+    l = getattr(scene, "rotor_momentum", None)
+    return np.zeros(3) if l is None else np.asarray(l, dtype=float)
+
+
 def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float = 0.0
                          ) -> np.ndarray:
-    """The kernel's reference values for the running diagnostics, ``(N, 10)``:
-    ``1/I``, the torque model's code, 0, 0, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``
-    (``E0`` NaN where the kernels cannot follow the energy: a user's Python potential,
-    a potential that depends on the time)."""
+    """The kernel's reference values for the running diagnostics, ``(N, DREF_WIDTH)``:
+    ``1/I``, the torque model's code, 0, 0, ``E0``, ``1/scale``, ``|L0|``, ``1/|L0|``, and
+    a gyrostat's rotor momentum ``l`` (``E0`` NaN where the kernels cannot follow the
+    energy: a user's Python potential, a potential that depends on the time)."""
     from liebody._models.dispatch import potentials
 
     q0, m0 = np.atleast_2d(q0), np.atleast_2d(m0)
     n = q0.shape[0]
     inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
-    T0 = 0.5 * np.sum(m0 * m0 * inv, axis=1)
+    rotor = np.broadcast_to(rotor_momentum(scene), (n, 3))
+    T0 = 0.5 * np.sum((m0 - rotor) ** 2 * inv, axis=1)
     V0 = np.zeros(n)
     potentials(model.code, model.params, np.full(n, float(t0)), np.ascontiguousarray(q0), V0)
     code = np.full(n, float(model.code))
@@ -181,7 +189,7 @@ def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float
     zero = np.zeros(n)
     with np.errstate(divide="ignore", invalid="ignore"):
         ref = np.column_stack([inv, code, zero, zero, T0 + V0, 1.0 / (T0 + np.abs(V0)), g,
-                               1.0 / g])
+                               1.0 / g, rotor])
     return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
 
 
@@ -275,8 +283,9 @@ def _invariant_problems(traj: Trajectory) -> list[str]:
         report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
                lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
                          f"{CASIMIR_TOL:g} relative")
-    T0 = 0.5 * np.sum(L[:, 0] ** 2 / moments, axis=1)
-    T1 = 0.5 * np.sum(L[:, -1] ** 2 / moments, axis=1)
+    rotor = np.broadcast_to(rotor_momentum(scene), (q.shape[0], 3))  # (gyrostats)
+    T0 = 0.5 * np.sum((L[:, 0] - rotor) ** 2 / moments, axis=1)
+    T1 = 0.5 * np.sum((L[:, -1] - rotor) ** 2 / moments, axis=1)
     if (method.symplectic or method.keeps_energy) and caps.conservative:
         ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (N, 2, 4)
         ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
@@ -349,6 +358,11 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
             out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
                        f"relative")
     I1, I2, I3 = scene.moments.tolist()
+    l = getattr(scene, "rotor_momentum", None)
+    if l is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
+        l1, l2, l3 = np.asarray(l, dtype=float).tolist()
+        L0 = [L0[0] - l1, L0[1] - l2, L0[2] - l3]
+        L1 = [L1[0] - l1, L1[1] - l2, L1[2] - l3]
     T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)
     T1 = 0.5 * (L1[0] * L1[0] / I1 + L1[1] * L1[1] / I2 + L1[2] * L1[2] / I3)
     if (method.symplectic or method.keeps_energy) and caps.conservative:

@@ -65,7 +65,7 @@ class EnsembleRun:
         self.info: dict = {}
         self.diag = diagnostics
         self.dref = (diagnostic_reference(scene, model, q0, m0, t0) if diagnostics
-                     else np.zeros((n, 10)))
+                     else np.zeros((n, S.DREF_WIDTH)))
         self.dmax = np.zeros((n, 3))
 
     @property

@@ -594,7 +594,7 @@ class _Run:
         self.model, self.progress = model, progress
         self.diag = diagnostics
         self.dref = (diagnostic_reference(scene, model, q0, m0, t0)[0] if diagnostics
-                     else np.zeros(10))
+                     else np.zeros(S.DREF_WIDTH))
         self.dmax = np.zeros(3)
         n = t.shape[0]
         self.q_out = np.empty((n, 4))

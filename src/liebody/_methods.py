@@ -756,6 +756,12 @@ def check_supports(method: Method, scene) -> None:
             f"the scene {type(scene).__name__} {said} in its capabilities but its "
             f"torque_model() gives {gives}: the methods would disagree on whether it has a "
             f"torque. Make the two agree (the Scene contract in liebody.scenes)")
+    rotor = getattr(scene, "rotor_momentum", None)
+    if method.sampled and rotor is not None and np.any(np.asarray(rotor) != 0.0):
+        raise ValueError(
+            f"method {method.name!r} evaluates the rigid body's exact flow at the output "
+            f"times; a gyrostat (rotor momentum l, body angular velocity (L - l) / I) is "
+            f"stepped: use splitting2 (its default), splitting4/6/8 or a baseline")
     if method.supports(scene):
         return
     able = [m.name for m in _REGISTRY.values() if m.supports(scene)]

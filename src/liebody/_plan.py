@@ -60,6 +60,7 @@ class Bodies:
     #: the torque model's parameter blocks, ``(1, k)`` shared by every body or ``(N, k)``
     model_params: np.ndarray
     eps: np.ndarray  # (N,): dissipation strength
+    rotor: np.ndarray  # (N, 3): a gyrostat's rotor momentum (body frame), zeros if rigid
     capabilities: object
     free_flow: str
     torque_code: int
@@ -83,15 +84,17 @@ class Bodies:
         moments = np.asarray(scene.moments, dtype=float)
         mp = model.params
         eps = np.asarray(scene.dissipation, dtype=float)
+        rotor = getattr(scene, "rotor_momentum", None)
+        rotor = np.zeros(3) if rotor is None else np.asarray(rotor, dtype=float)
         n = np.broadcast_shapes(m0.shape[:-1], moments.shape[:-1], eps.shape,
-                                mp.shape[:1] if mp.shape[0] > 1 else ())
+                                rotor.shape[:-1], mp.shape[:1] if mp.shape[0] > 1 else ())
         size = int(np.prod(n)) if n else 1
 
         def rows(a, width):
             return np.ascontiguousarray(np.broadcast_to(a, n + (width,)).reshape(size, width))
 
         return cls(rows(moments, 3), rows(m0, 3), mp,
-                   np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)),
+                   np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)), rows(rotor, 3),
                    scene.capabilities, scene.free_flow, model.code)
 
     def __len__(self) -> int:
@@ -99,7 +102,8 @@ class Bodies:
 
     def take(self, idx) -> Bodies:
         out = replace(self, moments=self.moments[idx], momenta=self.momenta[idx],
-                      model_params=self._model_rows(idx), eps=self.eps[idx])
+                      model_params=self._model_rows(idx), eps=self.eps[idx],
+                      rotor=self.rotor[idx])
         memo = self.__dict__.get("_orderings")
         if memo:  # the orbits' ordering choices, for the bodies taken
             out.__dict__["_orderings"] = {k: (o[idx], sc[idx]) for k, (o, sc) in memo.items()}
@@ -109,11 +113,28 @@ class Bodies:
         mp = self.model_params
         return mp if mp.shape[0] == 1 else np.ascontiguousarray(mp[idx])
 
+    @property
+    def has_rotor(self) -> bool:
+        """Whether any body is a gyrostat (carries rotor momentum)."""
+        return bool(np.any(self.rotor != 0.0))
+
+    def require_rigid(self, what: str) -> None:
+        """Refuse a flow that is the rigid body's for a gyrostat, naming it and the way."""
+        if self.has_rotor:
+            raise ValueError(
+                f"{what} is the rigid body's flow, not a gyrostat's (its rotor momentum "
+                f"turns the body at (L - l) / I): integrate a gyrostat with the axis "
+                f"splittings (splitting2, no_squish, splitting4/6/8 and user splittings of "
+                f"T1, T2, T3) or a baseline")
+
     def orderings(self, pieces_of) -> tuple[np.ndarray, np.ndarray]:
         """:func:`liebody._ordering.best_orderings` of these bodies (index and score per
         body), computed once per splitting family and kept (also by
         :meth:`~liebody.Scene.take`): the recipes read it for the keys and again for
-        ``info``."""
+        ``info``. For a gyrostat the choice, made for the rigid body's splitting error,
+        does not apply: the first ordering, ``(0, 1, 2)``, and a NaN score."""
+        if self.has_rotor:
+            return np.zeros(len(self), dtype=np.int64), np.full(len(self), np.nan)
         memo = self.__dict__.setdefault("_orderings", {})
         if pieces_of not in memo:
             memo[pieces_of] = _ordering.best_orderings(pieces_of, self.moments, self.m0)
@@ -121,9 +142,12 @@ class Bodies:
 
     @property
     def symmetry(self) -> np.ndarray:
-        """``(N,)``: the symmetry axis (0, 1, 2), :data:`SPHERICAL` or :data:`ASYMMETRIC`."""
+        """``(N,)``: the symmetry axis (0, 1, 2), :data:`SPHERICAL` or :data:`ASYMMETRIC`
+        (a gyrostat counts as asymmetric: its rotor breaks the symmetric-body flows)."""
         I0, I1, I2 = self.moments.T
         out = np.full(len(self), ASYMMETRIC)
+        if self.has_rotor:
+            return out
         out[I1 == I2] = 0
         out[I0 == I2] = 1
         out[I0 == I1] = 2
@@ -189,6 +213,7 @@ class Stage:
     moments: object = (0.0, 0.0, 0.0)
     torque: int = S.TORQUE_NONE
     eps: object = 0.0
+    rotor: object = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if self.kind not in S.KINDS:
@@ -204,11 +229,11 @@ class Stage:
         cache = self.__dict__.setdefault("_rows", {})
         p = cache.get(n)
         if p is None:
-            fields = ((self.moments, 2), (self.rate, 1), (self.eps, 1))
+            fields = ((self.moments, 2), (self.rate, 1), (self.eps, 1), (self.rotor, 2))
             shared = all(_same_for_all(v, rank) for v, rank in fields)
             p = np.zeros((1 if shared else n, S.N_PARAMS))
-            for (v, rank), cols in zip(fields, (slice(S.P_I1, S.P_I3 + 1), S.P_RATE, S.P_EPS),
-                                       strict=True):
+            for (v, rank), cols in zip(fields, (slice(S.P_I1, S.P_I3 + 1), S.P_RATE, S.P_EPS,
+                                                slice(S.P_L1, S.P_L3 + 1)), strict=True):
                 v = np.asarray(v, dtype=float)
                 p[:, cols] = v[:1] if shared and v.ndim == rank else v
             p[:, S.P_TORQUE] = float(self.torque)
@@ -354,6 +379,8 @@ def axis_stages(b: Bodies, ordering, sym: int) -> list[Stage]:
     inv = 1.0 / b.moments
 
     def rot(k, coef, clock=0.0):
+        if b.has_rotor:  # a gyrostat's axis term, (m_k - l_k)^2 / (2 I_k)
+            return Stage(S.AXIS_SHIFTED, coef, clock, axis=k, rate=inv[:, k], rotor=b.rotor)
         return rotation(k, coef, inv[:, k], sym in (k, SPHERICAL), clock)
 
     return [rot(a, 0.5), rot(bb, 0.5), rot(c, 1.0, clock=1.0), rot(bb, 0.5), rot(a, 0.5)]
@@ -386,6 +413,7 @@ def symmetric_flow_stages(b: Bodies, sym: int) -> tuple[list[Stage], str]:
 
 
 def exact_stage(b: Bodies) -> Stage:
+    b.require_rigid("the exact (elliptic) free flow")
     return Stage(S.EXACT, 1.0, 1.0, moments=b.moments)
 
 
@@ -572,6 +600,7 @@ class SR2Splitting(FreeFlowRecipe):
         return _ordering_keys(b, _ordering.sr2_pieces)[0]
 
     def free(self, b, h, key):
+        b.require_rigid("SR2's symmetric-body flow")
         sym1, order = split(key, 2)
         variant = _ordering.ORDERINGS[order]
         _, score = b.orderings(_ordering.sr2_pieces)
@@ -592,7 +621,7 @@ class BestSplitting(FreeFlowRecipe):
     def free_keys(self, b, h):
         axis_order, s_axis = b.orderings(_ordering.axis_pieces)
         sr2_order, s_sr2 = b.orderings(_ordering.sr2_pieces)
-        use_sr2 = s_sr2 <= s_axis
+        use_sr2 = (s_sr2 <= s_axis) & (not b.has_rotor)  # (a gyrostat: the axis splitting)
         return combine(use_sr2, b.symmetry + 1, np.where(use_sr2, sr2_order, axis_order))
 
     def free(self, b, h, key):
@@ -635,6 +664,7 @@ class DMVFlow(FreeFlowRecipe):
         return self.order > 2
 
     def free(self, b, h, key):
+        b.require_rigid("the discrete Moser-Veselov step (RATTLE)")
         if self.order == 2:
             return [Stage(S.DMV, 1.0, 1.0, moments=b.moments)], {}
         mod = dmv_modified_moments(b.moments, b.m0, h, self.order)
@@ -652,6 +682,7 @@ class DMVFlow(FreeFlowRecipe):
         return [Stage(S.DMV, 1.0, 1.0, moments=mod)], info
 
     def drift(self, b, h, key):
+        b.require_rigid("the discrete Moser-Veselov step (RATTLE)")
         if self.order != 2:
             raise ValueError("preprocessed DMV integrates free bodies only")
         return [Stage(S.DMV, 1.0, 1.0, moments=b.moments)], {"free_flow": "dmv"}
@@ -772,8 +803,13 @@ class FlowSequence(Recipe):
         for name, frac, clock in self.flows:
             if name in ("T1", "T2", "T3"):
                 k = int(name[1]) - 1
-                out.append(rotation(k, frac, inv[:, k], sym in (k, SPHERICAL), clock))
+                if b.has_rotor:
+                    out.append(Stage(S.AXIS_SHIFTED, frac, clock, axis=k, rate=inv[:, k],
+                                     rotor=b.rotor))
+                else:
+                    out.append(rotation(k, frac, inv[:, k], sym in (k, SPHERICAL), clock))
             elif name == "free":
+                b.require_rigid("the exact (elliptic) free flow")
                 out.append(Stage(S.EXACT, frac, clock, moments=b.moments))
             elif name == "kick":
                 if not torque_free:  # (a free body has nothing to kick, nor a clock)
@@ -795,7 +831,7 @@ class Baseline(Recipe):
 
     def stages(self, b, h, key):
         return [Stage(self.kind, 1.0, 1.0, moments=b.moments, torque=b.torque_code,
-                      eps=b.eps)], {}
+                      eps=b.eps, rotor=b.rotor)], {}
 
 
 def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, Plan]]:

@@ -239,7 +239,8 @@ class Stepper:
             self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
                           bool(plan.merge_ends), self._dt)
             self._tail = (True, self._state, self._ctl, np.empty((1, 4)), np.empty((1, 3)),
-                          self._model.address, plan.model[0], np.zeros(10), np.zeros(3))
+                          self._model.address, plan.model[0], np.zeros(S.DREF_WIDTH),
+                          np.zeros(3))
             runner = RUNNERS[plan.family]
             self._ctl[:] = (1, 0)
             args = [*self._head, self._t0, 0.0, 0, 1, *self._tail]
@@ -294,7 +295,7 @@ class Stepper:
                 "m": np.empty((g, 2, 3)), "saved": np.zeros(g, dtype=np.int64),
                 "done": np.zeros(g, dtype=np.int64),
                 "status": self._status[idx].copy(),
-                "dref": np.zeros((g, 10)), "dmax": np.zeros((g, 3))}
+                "dref": np.zeros((g, S.DREF_WIDTH)), "dmax": np.zeros((g, 3))}
 
     def _runner(self, plan):
         """The batch driver of a group's plan and whether it is the SIMD one: the rule

@@ -12,9 +12,10 @@ import liebody
 
 @njit
 def _bad_where_p_is_negative(t, q, L, p):
+    """A torque of the orientation only (explicit kicks: the SIMD kernels run it too)."""
     if p[0] < 0.0:
         return np.array([np.nan, 0.0, 0.0])
-    return -p[0] * L
+    return -p[0] * q[1:]
 
 
 @njit

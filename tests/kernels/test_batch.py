@@ -89,7 +89,7 @@ class Run:
         self.saved = np.ones(n, dtype=np.int64)
         self.done = np.zeros(n, dtype=np.int64)
         self.status = np.zeros(n, dtype=np.int64)
-        self.dref = (np.zeros((n, 10)) if scene is None else np.ascontiguousarray(
+        self.dref = (np.zeros((n, S.DREF_WIDTH)) if scene is None else np.ascontiguousarray(
             diagnostic_reference(scene, scene.torque_model(), q0, L0)))
         self.dmax = np.zeros((n, 3))
 

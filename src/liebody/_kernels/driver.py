@@ -40,6 +40,7 @@ from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import (
     axis_flow,
     axis_flow_recurring,
+    axis_flow_shifted,
     dmv_step,
     euler_step,
     lie_euler_step,
@@ -50,6 +51,7 @@ from liebody._kernels.flows import (
 from liebody._kernels.stages import (
     AXIS,
     AXIS_RECURRING,
+    AXIS_SHIFTED,
     DAMP,
     DMV,
     EULER,
@@ -74,6 +76,7 @@ from liebody._kernels.stages import (
     P_I1,
     P_I2,
     P_I3,
+    P_L1,
     P_RATE,
     RK4,
     RKMK4,
@@ -217,6 +220,8 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
         r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
     elif kind == AXIS_RECURRING:
         r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
+    elif kind == AXIS_SHIFTED:
+        r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, p[P_RATE], p[P_L1 + axis], tau)
     elif kind == SPHERE:
         r = sphere_flow(w, x, y, z, m1, m2, m3, p[P_RATE], tau)
     elif kind == DMV:
@@ -242,7 +247,8 @@ def _diagnose(t, w, x, y, z, m1, m2, m3, mp, dref, dmax):
     """Update the running diagnostics ``dmax`` with the state at time ``t`` (see
     :func:`_runner`)."""
     n2 = w * w + x * x + y * y + z * z
-    T = 0.5 * (m1 * m1 * dref[0] + m2 * m2 * dref[1] + m3 * m3 * dref[2])
+    d1, d2, d3 = m1 - dref[10], m2 - dref[11], m3 - dref[12]  # (m - l: a gyrostat's rotor)
+    T = 0.5 * (d1 * d1 * dref[0] + d2 * d2 * dref[1] + d3 * d3 * dref[2])
     V = dispatch.potential(int(dref[3]), mp, t, w, x, y, z)
     e = abs(T + V - dref[6]) * dref[7]
     qe = abs(math.sqrt(n2) - 1.0)
@@ -293,8 +299,9 @@ def _runner(family: int, diag: bool = False):
         Running diagnostics (``diag``, a compile-time constant): after every step,
         ``dmax`` (in place) keeps the largest relative energy error ``|E - E0| / scale``,
         ``| |q| - 1 |`` and relative ``| |L| - |L0| |`` seen, with ``dref`` = ``(1/I1,
-        1/I2, 1/I3, code, 0, 0, E0, 1/scale, |L0|, 1/|L0|)`` (``code``: the torque
-        model whose potential the energy includes, evaluated at the step's end time).
+        1/I2, 1/I3, code, 0, 0, E0, 1/scale, |L0|, 1/|L0|, l1, l2, l3)`` (``code``: the
+        torque model whose potential the energy includes, evaluated at the step's end time;
+        ``l`` a gyrostat's rotor momentum, the kinetic energy ``(m - l) I^-1 (m - l) / 2``).
         Run with ``merge_ends`` false, so that every step ends on a full step's state.
         """
         ns = kinds.shape[0]
@@ -344,6 +351,10 @@ def _runner(family: int, diag: bool = False):
                     elif kind == AXIS_RECURRING:
                         r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axes[j],
                                                 params[j, P_RATE], tau)
+                        w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                    elif kind == AXIS_SHIFTED:
+                        r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axes[j],
+                                              params[j, P_RATE], params[j, P_L1 + axes[j]], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     else:
                         r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, P_RATE], tau)

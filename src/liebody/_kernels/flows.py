@@ -32,7 +32,17 @@ from liebody._kernels.quat import (
     qrotate_inv,
     qunit_increment,
 )
-from liebody._kernels.stages import P_EPS, P_I1, P_I2, P_I3, P_TORQUE, TORQUE_NONE
+from liebody._kernels.stages import (
+    P_EPS,
+    P_I1,
+    P_I2,
+    P_I3,
+    P_L1,
+    P_L2,
+    P_L3,
+    P_TORQUE,
+    TORQUE_NONE,
+)
 from liebody._kernels.torque import damping_rate, torque_value
 
 #: a recurring rotation whose squared half angle is at least this keeps ``q`` on the unit
@@ -54,7 +64,27 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     sub-flow of the kinetic-energy term ``T_k`` (McLachlan 1993; Reich 1994). Keeps
     ``|m|``, spatial ``L = R(q) m`` exactly and ``|q|`` to round-off. One sin, one cos.
     """
-    half = 0.5 * tau * rate * component(axis, m1, m2, m3)
+    return _axis_turn(w, x, y, z, m1, m2, m3, axis, 0.5 * tau * rate * component(axis, m1, m2,
+                                                                               m3))
+
+
+@jit
+def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
+    """Exact flow of ``H_k = rate * (m_k - shift)^2 / 2``: the gyrostat's axis term, ``shift``
+    the rotor momentum ``l_k`` (body frame, constant).
+
+    ``m_k`` is constant; ``m`` and ``q`` turn as in :func:`axis_flow` by
+    ``theta = tau * rate * (m_k - l_k)``: the body's own angular velocity about ``e_k`` is
+    ``(m_k - l_k) / I_k`` (Hughes, *Spacecraft Attitude Dynamics*, 1986, ch. 7; Wittenburg,
+    *Dynamics of Systems of Rigid Bodies*, 1977). Keeps ``|m|`` and the spatial ``L``.
+    """
+    return _axis_turn(w, x, y, z, m1, m2, m3, axis,
+                      0.5 * tau * rate * (component(axis, m1, m2, m3) - shift))
+
+
+@jit(inline="always")
+def _axis_turn(w, x, y, z, m1, m2, m3, axis, half):
+    """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis``."""
     s2 = math.sin(half)
     c2 = math.cos(half)
     c = 1.0 - 2.0 * s2 * s2
@@ -282,6 +312,14 @@ def _omega_e(m1, m2, m3, I1, I2, I3, eps):
 
 
 @jit
+def _omega(m1, m2, m3, I1, I2, I3, eps, l1, l2, l3):
+    """``omega_e`` of a gyrostat: ``I^-1 (m - l)`` (``l`` the rotor momentum, body frame;
+    exactly ``omega_e`` for ``l = 0``) plus the dissipation's term."""
+    o1, o2, o3 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
+    return o1 - l1 / I1, o2 - l2 / I2, o3 - l3 / I3
+
+
+@jit
 def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp):
     """Right-hand side ``(q', m')`` in R^7 (no constraint), with torque and dissipation.
 
@@ -289,7 +327,8 @@ def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp):
     ``m' = m x omega_e + tau(t, q, m)``. ``p``: the stage's parameter row (moments,
     ``eps``, the torque and its controls).
     """
-    o1, o2, o3 = _omega_e(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
+                        p[P_L3])
     dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
     return (dw, dx, dy, dz,
@@ -354,7 +393,8 @@ def lie_euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp):
     symplectic nor symmetric: it drives ``m`` towards the axis of maximum energy.
     """
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
-    o1, o2, o3 = _omega_e(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
+                        p[P_L3])
     r = _coadjoint(w, x, y, z, m1, m2, m3, h * o1, h * o2, h * o3)
     return r[0], r[1], r[2], r[3], r[4] + h * n1, r[5] + h * n2, r[6] + h * n3
 
@@ -375,21 +415,23 @@ def _dexpinv(u1, u2, u3, v1, v2, v3):
 
 
 @jit
-def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, eps, h):
+def _rkmk_stage(m1, m2, m3, u1, u2, u3, I1, I2, I3, eps, h, l1, l2, l3):
     """``dexpinv(u, h omega_e(exp(-hat u) m))``: one coadjoint RKMK stage derivative."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
     n1, n2, n3 = qrotate_inv(ew, ex, ey, ez, m1, m2, m3)
-    o1, o2, o3 = _omega_e(n1, n2, n3, I1, I2, I3, eps)
+    o1, o2, o3 = _omega(n1, n2, n3, I1, I2, I3, eps, l1, l2, l3)
     return _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
 
 
 @jit
-def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h):
-    k1 = _omega_e(m1, m2, m3, I1, I2, I3, eps)
+def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h, l1, l2, l3):
+    k1 = _omega(m1, m2, m3, I1, I2, I3, eps, l1, l2, l3)
     k1 = (h * k1[0], h * k1[1], h * k1[2])
-    k2 = _rkmk_stage(m1, m2, m3, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2], I1, I2, I3, eps, h)
-    k3 = _rkmk_stage(m1, m2, m3, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2], I1, I2, I3, eps, h)
-    k4 = _rkmk_stage(m1, m2, m3, k3[0], k3[1], k3[2], I1, I2, I3, eps, h)
+    k2 = _rkmk_stage(m1, m2, m3, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2], I1, I2, I3, eps, h,
+                     l1, l2, l3)
+    k3 = _rkmk_stage(m1, m2, m3, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2], I1, I2, I3, eps, h,
+                     l1, l2, l3)
+    k4 = _rkmk_stage(m1, m2, m3, k3[0], k3[1], k3[2], I1, I2, I3, eps, h, l1, l2, l3)
     s1 = (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]) / 6.0
     s2 = (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]) / 6.0
     s3 = (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]) / 6.0
@@ -401,7 +443,8 @@ def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, p, h, torque_add
     """Stage derivatives on SO(3) x R^3: ``(dexpinv(u, h omega_e), h m')`` at ``(q exp(u), m)``."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
     qw, qx, qy, qz = qmul(w, x, y, z, ew, ex, ey, ez)
-    o1, o2, o3 = _omega_e(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
+                        p[P_L3])
     n1, n2, n3 = torque_value(p, t, qw, qx, qy, qz, m1, m2, m3, torque_addr, mp)
     a1, a2, a3 = _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
     return (a1, a2, a3, h * (m2 * o3 - m3 * o2 + n1), h * (m3 * o1 - m1 * o3 + n2),
@@ -418,7 +461,7 @@ def rkmk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp):
     """
     if int(p[P_TORQUE]) == TORQUE_NONE:
         return _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS],
-                                h)
+                                h, p[P_L1], p[P_L2], p[P_L3])
     b = 0.5 * h
     k1 = _rkmk4_stage_torqued(t, w, x, y, z, 0.0, 0.0, 0.0, m1, m2, m3, p, h, torque_addr, mp)
     k2 = _rkmk4_stage_torqued(t + b, w, x, y, z, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2],

@@ -19,6 +19,8 @@ meaning for every kind (a kind reads the columns it needs and ignores the others
                             parameters are its parameter block, passed to the
                             drivers apart from the stages (``liebody._models``)
 ``P_EPS``                   dissipation strength ``eps``
+``P_L1, P_L2, P_L3``        rotor momentum ``l`` of a gyrostat (body frame): the
+                            kinetic energy is ``(m - l)^T I^-1 (m - l) / 2``
 ``P_U0 .. P_U0 + 5``        control inputs ``u`` passed to a user torque, held
                             constant over each step (zero-order hold); a
                             :class:`liebody.Stepper` sets them between steps
@@ -48,13 +50,17 @@ EULER = 8  # explicit Euler on (q, m) in R^7 (baseline)
 RK4 = 9  # classical Runge-Kutta 4 on (q, m) in R^7 (baseline)
 LIE_EULER = 10  # Lie-Euler, coadjoint form (baseline)
 RKMK4 = 11  # Runge-Kutta-Munthe-Kaas 4 (baseline)
+AXIS_SHIFTED = 12  # exact flow of rate * (m_k - l_k)^2 / 2: a gyrostat's axis term
 
 # ------------------------------------------------------------------------ parameter slots
 P_I1, P_I2, P_I3 = 0, 1, 2
 P_RATE = 3
 P_TORQUE = 4
 P_EPS = 5
-P_U0 = 6
+P_L1, P_L2, P_L3 = 6, 7, 8  # rotor momentum (gyrostat), body frame
+P_U0 = 9
+#: columns of the running diagnostics' reference values (``driver._diagnose``)
+DREF_WIDTH = 13
 #: the most control inputs a user torque takes
 N_CONTROLS = 6
 #: width of a parameter row
@@ -89,6 +95,7 @@ class Kind(NamedTuple):
 _MOMENTS = ("I1", "I2", "I3")
 _TORQUE = ("torque",)
 _CONTROLS = tuple(f"u{i}" for i in range(N_CONTROLS))
+_ROTOR = ("l1", "l2", "l3")
 
 #: every stage kind, by code
 KINDS: dict[int, Kind] = {
@@ -100,15 +107,17 @@ KINDS: dict[int, Kind] = {
     DAMP: Kind("damping", (*_MOMENTS, "eps"), False, False),
     DMV: Kind("dmv", _MOMENTS, False, False),
     EXACT: Kind("exact", _MOMENTS, False, False),
-    EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
-    RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
-    LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
-    RKMK4: Kind("rkmk4", (*_MOMENTS, *_TORQUE, "eps", *_CONTROLS), False, False),
+    EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False, False),
+    RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False, False),
+    LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False,
+                    False),
+    RKMK4: Kind("rkmk4", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False, False),
+    AXIS_SHIFTED: Kind("axis (gyrostat)", ("rate", *_ROTOR), True, True),
 }
 
 #: parameter name -> slot
 SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
-                         "torque": P_TORQUE, "eps": P_EPS,
+                         "torque": P_TORQUE, "eps": P_EPS, "l1": P_L1, "l2": P_L2, "l3": P_L3,
                          **{f"u{i}": P_U0 + i for i in range(N_CONTROLS)}}
 
 # ------------------------------------------------------------------------------ families
@@ -142,9 +151,9 @@ _ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
 #: family code -> the stage kinds its driver runs (in the order tried)
 FAMILIES: dict[int, frozenset[int]] = {
     F_AXES: frozenset({AXIS}),
-    F_ROTATIONS: _ROTATIONS,
-    F_KICKED: _ROTATIONS | {KICK},
-    F_SPLITTING: _ROTATIONS | _KICKS | {DAMP},
+    F_ROTATIONS: _ROTATIONS | {AXIS_SHIFTED},
+    F_KICKED: _ROTATIONS | {KICK, AXIS_SHIFTED},
+    F_SPLITTING: _ROTATIONS | _KICKS | {DAMP, AXIS_SHIFTED},
     F_DMV_FREE: frozenset({DMV}),
     F_DMV: _KICKS | {DMV},
     F_EXACT: _KICKS | {EXACT, DAMP},
