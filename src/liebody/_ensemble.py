@@ -137,7 +137,7 @@ class EnsembleRun:
         else:
             self.info = {"groups": [dict(plan.info, bodies=idx, simd=r[1])
                                     for (idx, plan), r in zip(groups, runners, strict=True)]}
-        work = [self._group(idx, plan, r[0])
+        work = [self._group(idx, plan, r[0], r[1])
                 for (idx, plan), r in zip(groups, runners, strict=True)]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
         done = 0
@@ -155,7 +155,7 @@ class EnsembleRun:
         self._collect(work)
         return self._result(len(self.t))
 
-    def _group(self, idx, plan, runner) -> dict:
+    def _group(self, idx, plan, runner, simd: bool = False) -> dict:
         """A group's arrays: views of the ensemble's when its bodies are all of them."""
         whole = len(idx) == self.n
         sel = slice(None) if whole else idx
@@ -163,6 +163,7 @@ class EnsembleRun:
         params = with_controls(plan.params, None if self.u is None else (
             self.u if self.u.ndim == 1 else self.u[sel]), len(idx))
         g = {"idx": idx, "plan": plan, "params": params, "runner": runner, "whole": whole,
+             "addr": self.model.driver_address(simd),
              "state": np.ascontiguousarray(np.concatenate([self.q0[sel], self.m0[sel]], axis=1)),
              "ctl": np.tile(np.array([self.save_every, 0], dtype=np.int64), (len(idx), 1)),
              "saved": np.ones(len(idx), dtype=np.int64),
@@ -181,7 +182,7 @@ class EnsembleRun:
         g["runner"](*batch_args(p, g["params"], p.merge_ends and not self.diag, self.dt, self.t0,
                                 float(done), k, self.save_every, final, g["state"][c],
                                 g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
-                                g["done"][c], g["status"][c], self.model.address, c,
+                                g["done"][c], g["status"][c], g["addr"], c,
                                 g["dref"][c], g["dmax"][c]))
 
     def _collect(self, work) -> None:

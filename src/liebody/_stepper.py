@@ -278,7 +278,8 @@ class Stepper:
                          g["params"] if g["params"].shape[0] == 1 else g["params"][c],
                          g["merge"], self._dt),
                 "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
-                         g["done"][c], g["status"][c], self._model.address,
+                         g["done"][c], g["status"][c],
+                         self._model.driver_address(g["simd"]),
                          p.model_rows(c), g["dref"][c], g["dmax"][c])}
 
     def _group(self, idx, plan, params, runner, simd: bool) -> dict:

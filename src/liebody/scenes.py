@@ -201,6 +201,20 @@ class TorqueModel:
                    address=_callback(torque, controls, takes), function=torque,
                    controls=controls, takes_params=takes)
 
+    @property
+    def block_address(self) -> int:
+        """The address of the user torque's callback for many bodies at once (the SIMD
+        drivers'; ``user_torque.adapt_user_block``), compiled on first use; 0 for the
+        built-in models, which the SIMD kernels evaluate themselves."""
+        if self.function is None:
+            return 0
+        return _callback(self.function, self.controls, self.takes_params, block=True)
+
+    def driver_address(self, simd: bool) -> int:
+        """The callback address a driver takes: the block callback for the SIMD drivers,
+        the one-body callback otherwise."""
+        return self.block_address if simd else self.address
+
     def row(self, i: int = 0) -> np.ndarray:
         """Body ``i``'s parameter row (the shared row when there is one)."""
         return self.params[0 if self.params.shape[0] == 1 else i]
@@ -915,13 +929,15 @@ def _per_body(param: np.ndarray, values: np.ndarray) -> np.ndarray:
 _CALLBACKS: dict = {}
 
 
-def _callback(torque, controls: int = 0, params: bool = False) -> int:
-    """The address of the C callback of a user torque, compiled once per process."""
-    key = (id(torque), controls, params)
+def _callback(torque, controls: int = 0, params: bool = False, block: bool = False) -> int:
+    """The address of the C callback of a user torque (one body, or ``block``: many at
+    once), compiled once per process."""
+    key = (id(torque), controls, params, block)
     entry = _CALLBACKS.get(key)
     if entry is None or entry[0] is not torque:
-        from liebody._models.user_torque import adapt_user_torque
+        from liebody._models.user_torque import adapt_user_block, adapt_user_torque
 
-        entry = (torque, adapt_user_torque(torque, controls, params))
+        adapt = adapt_user_block if block else adapt_user_torque
+        entry = (torque, adapt(torque, controls, params))
         _CALLBACKS[key] = entry
     return entry[1]

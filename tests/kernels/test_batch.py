@@ -533,8 +533,8 @@ def test_the_block_loops_compile_to_packed_instructions():
     r = np.ones(B.BLOCK)
     p = np.ones((6, B.BLOCK))
     idx = np.arange(B.BLOCK)
-    mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 12)), idx, np.zeros(1),
-          np.zeros((6, B.BLOCK)))
+    mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 15)), idx, np.zeros(1),
+          np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64))
     blocks = np.ones((B.BLOCK, 16))  # per-body inertia, one source
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")

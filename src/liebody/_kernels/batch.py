@@ -151,6 +151,7 @@ from liebody._kernels.stages import (
     KICK,
     KINDS,
     MAX_MODEL_CODE,
+    N_CONTROLS,
     P_I1,
     P_I2,
     P_I3,
@@ -582,7 +583,7 @@ def _model_kick_block(buf, mc, j, nb, t, tau):
     dispatch.prepare(code, mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]], t, scratch)
     out = mc[7]
     dispatch.torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, buf,
-                          (W0, X0, Y0, Z0, M10, M20, M30), out)
+                          (W0, X0, Y0, Z0, M10, M20, M30), out, mc[8], mc[9])
     for b in range(nb):
         n1, n2, n3 = out[0, b], out[1, b], out[2, b]
         f = buf[FAIL0 + b]
@@ -968,7 +969,8 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
     _gather(kinds, params, mpar, idx, nb, par)
     # the model context of the kicks and diagnostics: (kick model code, potential code of
     # the diagnostics, user callback address, model blocks, stage rows, body indices,
-    # scratch for the time-only part of the torque, the block's torques and work rows)
+    # scratch for the time-only part of the torque, the block's torques and work rows,
+    # a user torque's controls and parameter rows per body)
     mcode = 0
     for j in range(kinds.shape[0]):
         if kinds[j] == KICK:
@@ -976,7 +978,8 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
     dcode = int(dref[idx[0], 3]) if diag else 0
     mrow = mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]]
     scratch = np.empty(dispatch.scratch_size(mcode, mrow))
-    mc = (mcode, dcode, torque_addr, mpar, params, idx, scratch, np.empty((6, BLOCK)))
+    mc = (mcode, dcode, torque_addr, mpar, params, idx, scratch, np.empty((6, BLOCK)),
+          np.zeros((BLOCK, N_CONTROLS)), np.zeros(BLOCK, dtype=np.int64))
     until_save = ctl[idx[0], 0]
     pending = ctl[idx[0], 1] != 0
     n_saved = 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from liebody._kernels._jit import jit
+from liebody._kernels.stages import N_CONTROLS, P_U0
 from liebody._models import gravity_gradient, uniform_gravity, user_torque
 
 
@@ -51,13 +52,26 @@ def torque_prepared(code, mp, scratch, p, addr, t, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, state, rows, out):
+def torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, state, rows, out, U, R):
     """:func:`torque_prepared` for the ``nb`` bodies ``idx`` of a SIMD block: body ``b``'s
     ``w, x, y, z, m1, m2, m3`` at ``state[rows[k] + b]``, its torque into ``out[0..2, b]``.
-    A model with a vectorised block kernel runs it; any other is evaluated body by body
-    (``params[i, j]``: body ``i``'s row of stage ``j``, ``(1, s, P)`` when shared)."""
+    A model with a vectorised block kernel runs it; a user torque is called once for the
+    block through its block callback (``addr``: ``user_torque.adapt_user_block``; ``U``
+    ``(BLOCK, N_CONTROLS)`` and ``R`` ``(BLOCK,)`` int64 are work arrays for the bodies'
+    controls and parameter rows); any other is evaluated body by body (``params[i, j]``:
+    body ``i``'s row of stage ``j``, ``(1, s, P)`` when shared)."""
     if code == gravity_gradient.CODE:
         gravity_gradient.torque_block(scratch, mpar, idx, nb, state, rows, out)
+        return
+    if code == user_torque.CODE and addr != 0:
+        mshared = mpar.shape[0] == 1
+        pshared = params.shape[0] == 1
+        for b in range(nb):
+            i = idx[b]
+            R[b] = 0 if mshared else i
+            for c in range(N_CONTROLS):
+                U[b, c] = params[0 if pshared else i, j, P_U0 + c]
+        user_torque.call_block(addr, t, nb, state, rows, U, mpar, R, out)
         return
     mshared = mpar.shape[0] == 1
     pshared = params.shape[0] == 1

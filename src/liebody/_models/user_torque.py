@@ -88,6 +88,119 @@ def adapt_user_torque(user, controls: int = 0, params: bool = False):
     return adapter.address
 
 
+#: ``block(t, nb, state, n_state, w0, x0, y0, z0, a0, b0, c0, U, P, n_rows, k, rows, out,
+#: out_stride)``: the torque of ``nb`` bodies at once (the SIMD drivers), each body's state
+#: at ``state[w0 + b]`` .. ``state[c0 + b]``, its controls ``U[b, :]`` (``(nb,
+#: N_CONTROLS)``), its parameters ``P[rows[b]]`` (``(n_rows, k)``), its torque into
+#: ``out[0..2, b]`` (``(3, out_stride)``)
+BLOCK_SIG = types.void(types.float64, types.intp, types.CPointer(types.float64), types.intp,
+                       *([types.intp] * 7), types.CPointer(types.float64),
+                       types.CPointer(types.float64), types.intp, types.intp,
+                       types.CPointer(types.int64), types.CPointer(types.float64), types.intp)
+
+
+def adapt_user_block(user, controls: int = 0, params: bool = False) -> int:
+    """Wrap a user ``@njit`` torque as a :data:`BLOCK_SIG` callback for many bodies at once;
+    returns its address (the SIMD drivers call it once per kick and block of bodies).
+
+    The user's function is called for each body with the same ``q``, ``L`` (and ``u``)
+    arrays, refilled (no allocation of the wrapper's per body; a torque that returns a
+    tuple of three numbers allocates nothing at all, one that returns an array
+    allocates it). A body whose torque raises, or does not give three numbers, gets NaN.
+    """
+    import numpy as np
+    from numba import carray
+
+    if not 0 <= controls <= N_CONTROLS:
+        raise ValueError(f"controls must be 0 to {N_CONTROLS}, got {controls}")
+    width = max(controls, 1)
+
+    def evaluate(t, nb, st, w0, x0, y0, z0, a0, b0, c0, U, P, rows, out):
+        q = np.empty(4)
+        L = np.empty(3)
+        u = np.empty(width)
+        for b in range(nb):
+            q[0], q[1], q[2], q[3] = st[w0 + b], st[x0 + b], st[y0 + b], st[z0 + b]
+            L[0], L[1], L[2] = st[a0 + b], st[b0 + b], st[c0 + b]
+            for i in range(controls):
+                u[i] = U[b, i]
+            t1 = t2 = t3 = math.nan
+            try:
+                if controls:
+                    tau = user(t, q, L, P[rows[b]], u[:controls]) if params else user(
+                        t, q, L, u[:controls])
+                else:
+                    tau = user(t, q, L, P[rows[b]]) if params else user(t, q, L)
+                if len(tau) == 3:
+                    t1, t2, t3 = float(tau[0]), float(tau[1]), float(tau[2])
+            except Exception:
+                pass
+            out[0, b], out[1, b], out[2, b] = t1, t2, t3
+
+    if config.DISABLE_JIT:  # the uncompiled kernels call the Python function by its id
+        _ADAPTERS[id(evaluate)] = evaluate
+        return id(evaluate)
+
+    from numba import njit
+
+    inner = njit(evaluate)  # (uncached, as the callback: the user's function is new)
+
+    def body(t, nb, stp, n_state, w0, x0, y0, z0, a0, b0, c0, Up, Pp, n_rows, k, rowsp, outp,
+             ostride):
+        inner(t, nb, carray(stp, (n_state,)), w0, x0, y0, z0, a0, b0, c0,
+              carray(Up, (nb, N_CONTROLS)), carray(Pp, (n_rows, k)), carray(rowsp, (nb,)),
+              carray(outp, (3, ostride)))
+
+    adapter = cfunc(BLOCK_SIG)(body)
+    _ADAPTERS[adapter.address] = adapter
+    return adapter.address
+
+
+def _call_block_py(addr, t, nb, st, offsets, U, P, rows, out):
+    """:func:`call_block` for the uncompiled kernels: the adapter's Python function."""
+    _ADAPTERS[addr](t, nb, st, *offsets, U, P, rows, out)
+
+
+def _call_block_intrinsic():
+    from llvmlite import ir
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def call_block_raw(typingctx, addr, t, nb, st, offsets, U, P, rows, out):
+        """Call the :data:`BLOCK_SIG` callback at ``addr`` with the arrays' data pointers
+        and shapes (``offsets``: a tuple of the seven state rows' offsets)."""
+        sig = types.void(addr, t, nb, st, offsets, U, P, rows, out)
+
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(ir.VoidType(),
+                                   [context.get_value_type(a) for a in BLOCK_SIG.args])
+            fptr = builder.inttoptr(args[0], fnty.as_pointer())
+            st_a = context.make_array(signature.args[3])(context, builder, args[3])
+            u_a = context.make_array(signature.args[5])(context, builder, args[5])
+            p_a = context.make_array(signature.args[6])(context, builder, args[6])
+            r_a = context.make_array(signature.args[7])(context, builder, args[7])
+            o_a = context.make_array(signature.args[8])(context, builder, args[8])
+            offs = cgutils.unpack_tuple(builder, args[4], 7)
+            n_state = cgutils.unpack_tuple(builder, st_a.shape, 1)[0]
+            n_rows, k = cgutils.unpack_tuple(builder, p_a.shape, 2)
+            ostride = cgutils.unpack_tuple(builder, o_a.shape, 2)[1]
+            builder.call(fptr, [args[1], args[2], st_a.data, n_state, *offs, u_a.data,
+                                p_a.data, n_rows, k, r_a.data, o_a.data, ostride])
+            return context.get_dummy_value()
+
+        return sig, codegen
+
+    return call_block_raw
+
+
+#: ``call_block(addr, t, nb, state, offsets, U, P, rows, out)``: call the user torque's
+#: block callback at ``addr`` (:func:`adapt_user_block`); ``state`` 1-d, ``offsets`` the
+#: seven rows' offsets, ``U`` ``(nb, N_CONTROLS)``, ``P`` ``(n_rows, k)``, ``rows``
+#: ``(nb,)`` int64, ``out`` ``(3, m)``, all C-contiguous
+call_block = _call_block_py if config.DISABLE_JIT else _call_block_intrinsic()
+
+
 def _call_torque_py(addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp):
     """:func:`call_torque` for the uncompiled kernels: the adapter's Python function."""
     return _ADAPTERS[addr](t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp)
