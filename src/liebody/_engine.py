@@ -391,9 +391,13 @@ def _end_potentials(scene, q0: list, q1: list, t0: float = 0.0, t1: float = 0.0
                     ) -> tuple[float, float]:
     """The scene's potential at the first and last orientation (normalised) and times."""
     model = scene.torque_model()
-    if model.code != S.TORQUE_USER:  # a model's kernel: a few microseconds
-        from liebody._models.dispatch import potentials
+    if model.code != S.TORQUE_USER:
+        from liebody._models.dispatch import PYTHON_POTENTIALS, potentials
 
+        fast = PYTHON_POTENTIALS.get(model.code)
+        if fast is not None and model.params.shape[0] == 1:  # a few flops, no kernel call
+            row = model.params[0].tolist()
+            return fast(t0, q0, row), fast(t1, q1, row)
         V = np.zeros(2)
         potentials(model.code, model.params, np.array([t0, t1]), np.array([q0, q1]), V)
         return float(V[0]), float(V[1])

@@ -8,6 +8,11 @@ from liebody._kernels._jit import jit
 from liebody._kernels.stages import N_CONTROLS, P_U0
 from liebody._models import gravity_gradient, uniform_gravity, user_torque
 
+#: model code -> the model's potential in plain Python for one orientation,
+#: ``f(t, q, row)`` (models whose potential is a few flops; the others go through
+#: :func:`potentials`)
+PYTHON_POTENTIALS = {uniform_gravity.CODE: uniform_gravity.potential_py}
+
 
 @jit
 def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):

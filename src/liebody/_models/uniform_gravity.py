@@ -49,6 +49,16 @@ def potential(t, w, x, y, z, mp):
             + mp[2] * (w * w - x * x - y * y + z * z)) / n2
 
 
+def potential_py(t, q, row) -> float:
+    """:func:`potential` in plain Python for one orientation (the end-of-run energy check
+    of a one-body call: a kernel call through numba's dispatcher costs more than these
+    flops); the same arithmetic."""
+    w, x, y, z = q
+    n2 = w * w + x * x + y * y + z * z
+    return (row[0] * 2.0 * (x * z - w * y) + row[1] * 2.0 * (y * z + w * x)
+            + row[2] * (w * w - x * x - y * y + z * z)) / n2
+
+
 @jit
 def torque_bound(mp):
     """``|Gamma x c| <= |c|`` for unit ``q`` (``|Gamma| = |q|^2``)."""
