@@ -29,6 +29,7 @@ from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-ex
     diagnostics_dict,
     failure_message,
     failure_summary,
+    first_slice,
     resolve_threads,
     sample_diagnostics,
     time_slices,
@@ -144,7 +145,7 @@ class EnsembleRun:
         with _pool(min(self.threads, len(chunks))) as pool:
             try:
                 for k in self.slices(self.n_steps, self.progress, "step",
-                                     max(1, 4096 // self.n)):
+                                     max(1, first_slice(self.model) // self.n)):
                     final = done + k == self.n_steps
                     self._map(pool, lambda gc, done=done, k=k, final=final:
                               self._run_chunk(gc[0], gc[1], done, k, final), chunks)

@@ -40,7 +40,9 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     _torque_is_finite,
     diagnostic_reference,
     diagnostics_dict,
+    first_slice,
     input_sizes,
+    interrupt_after_call,
     one_body_args,
     raise_torque_error,
     time_slices,
@@ -602,8 +604,8 @@ class _Run:
         self.q_out[0], self.m_out[0] = q0, m0
         self.info: dict = {}
 
-    def _slices(self, total: int, unit: str):
-        return time_slices(total, self.progress, unit)
+    def _slices(self, total: int, unit: str, first: int = FIRST_SLICE):
+        return time_slices(total, self.progress, unit, first)
 
     # -------------------------------------------------------------- the exact flow
     def sampled(self) -> Trajectory:
@@ -657,20 +659,22 @@ class _Run:
         done = saved = 0
         status = S.STATUS_OK
         try:
-            if self.n_steps <= FIRST_SLICE and not self.progress:  # a short run: one call
+            first = first_slice(self.model)
+            if self.n_steps <= first and not self.progress:  # a short run: one call
                 done, saved, status = runner(*one_body_args(
                     plan, params, merge, self.dt, self.t0, 0.0, self.n_steps, self.save_every,
                     True, state, ctl, self.q_out[1:], self.m_out[1:], addr, self.dref,
                     self.dmax))
             else:
-                for n in self._slices(self.n_steps, "step"):
-                    d, s, status = runner(*one_body_args(
-                        plan, params, merge, self.dt, self.t0, float(done), n,
-                        self.save_every, done + n == self.n_steps, state, ctl,
-                        self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
-                        self.dmax))
-                    done += d
-                    saved += s
+                for n in self._slices(self.n_steps, "step", first):
+                    with interrupt_after_call():  # (a finished slice is kept on Ctrl-C)
+                        d, s, status = runner(*one_body_args(
+                            plan, params, merge, self.dt, self.t0, float(done), n,
+                            self.save_every, done + n == self.n_steps, state, ctl,
+                            self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
+                            self.dmax))
+                        done += d
+                        saved += s
                     if status != S.STATUS_OK:
                         break
         except KeyboardInterrupt:

@@ -46,8 +46,18 @@ with warnings.catch_warnings(record=True) as caught:
     tr2 = liebody.integrate(liebody.DampedBody(body, 0.1), L0=[1, 0, 0.1], dt=0.1, steps=10,
                             method="rk4")
     q = liebody.quaternion.multiply([0.6, 0.8, 0, 0], [0, 0, 0.6, 0.8])
+    # the other kernel families: the exact flow, the SIMD ensembles (their fused
+    # multiply-adds go through the jit policy too), DMV, the kicks of a heavy top
+    ex = liebody.integrate(liebody.FreeBody(body), L0=[1, 0, 0.1], dt=0.1, steps=10)
+    ens = liebody.integrate(liebody.FreeBody(body), L0=[[1, 0, 0.1]] * 8, dt=0.1, steps=10,
+                            method="splitting2", simd=True)
+    top = liebody.HeavyTop(liebody.RigidBody([5, 5, 1]), 1.0, [0, 0, 1.0], g=1.0)
+    ens2 = liebody.integrate(top, L0=[[0.1, 0, 5.0]] * 8, dt=0.01, steps=10, method="rattle",
+                             simd=True)
 print(json.dumps({
     "q": tr.q.tolist(), "L": tr.L.tolist(), "L2": tr2.L.tolist(), "qq": q.tolist(),
+    "ex": ex.L.tolist(), "ens": ens.L.tolist(), "ens2": ens2.L.tolist(),
+    "simd": [ens.info["simd"], ens2.info["simd"]],
     "warnings": [[w.category.__name__, issubclass(w.category, liebody.CacheWarning),
                   str(w.message)] for w in caught],
 }))
@@ -82,6 +92,16 @@ def test_no_writable_cache_folder_compiles_without_the_cache_and_warns_once():
     assert np.array_equal(np.array(out["L"]), tr.L)
     assert np.array_equal(np.array(out["L2"]), tr2.L)
     assert np.array_equal(np.array(out["qq"]), Q.multiply([0.6, 0.8, 0, 0], [0, 0, 0.6, 0.8]))
+    ex = liebody.integrate(liebody.FreeBody(body), L0=[1, 0, 0.1], dt=0.1, steps=10)
+    ens = liebody.integrate(liebody.FreeBody(body), L0=[[1, 0, 0.1]] * 8, dt=0.1, steps=10,
+                            method="splitting2", simd=True)
+    top = liebody.HeavyTop(liebody.RigidBody([5, 5, 1]), 1.0, [0, 0, 1.0], g=1.0)
+    ens2 = liebody.integrate(top, L0=[[0.1, 0, 5.0]] * 8, dt=0.01, steps=10, method="rattle",
+                             simd=True)
+    assert out["simd"] == [True, True]
+    assert np.array_equal(np.array(out["ex"]), ex.L)
+    assert np.array_equal(np.array(out["ens"]), ens.L)
+    assert np.array_equal(np.array(out["ens2"]), ens2.L)
 
 
 def test_cache_warning_class_loads_no_numba():
