@@ -138,6 +138,15 @@ def interrupt_after_call():
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+def block_interrupts() -> None:
+    """Block SIGINT in the calling (worker) thread, so that Ctrl-C is delivered to the
+    main thread, where :func:`interrupt_after_call` holds it until a slice is counted."""
+    import signal
+
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
 def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE):
     """Sizes of consecutive slices covering ``total`` units, each aiming at
     :data:`SLICE_SECONDS` of wall time (the first, of ``first`` units, measures the rate).

@@ -25,11 +25,13 @@ import numpy as np
 from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-exported
     REASONS,
     batch_args,
+    block_interrupts,
     diagnostic_reference,
     diagnostics_dict,
     failure_message,
     failure_summary,
     first_slice,
+    interrupt_after_call,
     resolve_threads,
     sample_diagnostics,
     time_slices,
@@ -147,9 +149,13 @@ class EnsembleRun:
                 for k in self.slices(self.n_steps, self.progress, "step",
                                      max(1, first_slice(self.model) // self.n)):
                     final = done + k == self.n_steps
-                    self._map(pool, lambda gc, done=done, k=k, final=final:
-                              self._run_chunk(gc[0], gc[1], done, k, final), chunks)
-                    done += k
+                    # Ctrl-C is delivered once every chunk has finished the slice and it
+                    # is counted (the pool's threads never take SIGINT): finished slices
+                    # are kept, and no thread writes while the result is made
+                    with interrupt_after_call():
+                        self._map(pool, lambda gc, done=done, k=k, final=final:
+                                  self._run_chunk(gc[0], gc[1], done, k, final), chunks)
+                        done += k
             except KeyboardInterrupt:
                 self._collect(work)
                 self._interrupted(1 + done // self.save_every)
@@ -264,7 +270,7 @@ class _pool:
 
     def __enter__(self):
         if self.n > 1:
-            self.pool = ThreadPoolExecutor(max_workers=self.n)
+            self.pool = ThreadPoolExecutor(max_workers=self.n, initializer=block_interrupts)
         return self.pool
 
     def __exit__(self, *exc):

@@ -34,11 +34,15 @@ def slow(t, q, L):
 
 
 scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]), slow, orientation_only=True)
-kw = dict(L0=[0.3, -1.0, 0.6], dt=0.01, method="splitting2", save_every=1)
+bodies = int(sys.argv[2])
+L0 = [0.3, -1.0, 0.6] if bodies == 1 else [[0.3, -1.0, 0.6 + 0.1 * i] for i in range(bodies)]
+kw = dict(L0=L0, dt=0.01, method="splitting2", save_every=1)
+if bodies > 1:
+    kw["threads"] = 2
 liebody.integrate(scene, steps=2, **kw)  # compiled
 t = time.perf_counter()
 liebody.integrate(scene, steps=20, **kw)
-cost = (time.perf_counter() - t) / 20
+cost = (time.perf_counter() - t) / 20 / max(1, bodies // 2)  # (two threads)
 print("ready", flush=True)
 try:
     liebody.integrate(scene, steps=int(sys.argv[1]), **kw)
@@ -52,8 +56,12 @@ except liebody.IntegrationInterrupted as exc:
 """)
 
 
-def test_ctrl_c_with_a_slow_torque_is_seen_within_seconds_and_keeps_the_steps_done():
-    proc = subprocess.Popen([sys.executable, "-c", _CHILD, "100000"], stdout=subprocess.PIPE,
+@pytest.mark.parametrize("bodies", [1, 4])
+def test_ctrl_c_with_a_slow_torque_is_seen_within_seconds_and_keeps_the_steps_done(bodies):
+    """One body, and an ensemble on two threads (every thread finishes its slice before
+    the interruption is raised; the slices finished are kept for every body)."""
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, "100000", str(bodies)],
+                            stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         assert proc.stdout.readline().strip() == "ready", proc.stderr.read()
