@@ -16,8 +16,8 @@ integrates the gyrostat with the axis splitting of ``H = (L - l)^T I^-1 (L - l) 
 """
 
 # %%
-# The body spins at 1 rad/s about its intermediate axis; rotors of increasing momentum
-# ---------------------------------------------------------------------------------------
+# Spin about the intermediate axis, with rotors of increasing momentum
+# --------------------------------------------------------------------
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -41,7 +41,7 @@ for h in (0.0, 10.0, 40.0):
 
 # %%
 # The stable gyrostat nutates at the rate of the linear theory
-# -----------------------------------------------------------
+# ------------------------------------------------------------
 
 traj, theory = runs[40.0]
 crossings = analysis.zero_crossings(traj.t, traj.L[:, 0])

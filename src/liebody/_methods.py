@@ -242,7 +242,7 @@ def check_composition(coefficients, order: float, base_order: int = 2) -> tuple[
 
 
 #: size of the random matrices that stand for the sub-flows' vector fields in
-#: :func:`check_splitting` (a matrix identity of degree below ``2 n`` does not hold for
+#: ``check_splitting`` (a matrix identity of degree below ``2 n`` does not hold for
 #: ``n x n`` matrices, Amitsur-Levitzki: 6 x 6 ones tell the conditions up to order 11)
 _ORDER_MATRIX = 6
 
@@ -330,8 +330,8 @@ def register(method: Method, *, replace: bool = False) -> Method:
     A registered method is integrable by :func:`liebody.integrate`, listed by
     :func:`methods` and picked up by the generic tests at once. Its declared order is
     checked where the recipe allows: the power conditions of a symmetric composition
-    (:func:`check_composition`), the order conditions of a splitting of exact sub-flows
-    (:func:`check_splitting`). Replacing one of liebody's built-in methods (some are
+    (``check_composition``), the order conditions of a splitting of exact sub-flows
+    (``check_splitting``). Replacing one of liebody's built-in methods (some are
     the scenes' default methods) warns (``UserWarning``): every run that names it, or
     that relies on a scene's default, then runs the replacement.
     """
@@ -604,7 +604,7 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         The order to declare; default 2 for a palindromic sequence (a symmetric
         method), else 1. A higher order is checked as for a composition: the order
         conditions (the terms of degree 2 to ``order`` of the splitting's
-        Baker-Campbell-Hausdorff logarithm vanish, :func:`check_splitting`), and a
+        Baker-Campbell-Hausdorff logarithm vanish, ``check_splitting``), and a
         false one is refused; a sequence that is not palindromic cannot declare more
         than 1. :func:`liebody.testing.observed_order` measures it.
     description, replace

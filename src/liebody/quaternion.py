@@ -323,7 +323,7 @@ def slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> Array:
 
     ``t`` may lie outside ``[0, 1]`` (extrapolation along the same great circle), but
     the rotation it asks for, ``|t|`` times the angle between ``q0`` and ``q1``, must
-    be at most :data:`MAX_ROTATION_ANGLE` (the limit of :func:`exp`); a larger one
+    be at most ``MAX_ROTATION_ANGLE`` (the limit of :func:`exp`); a larger one
     raises ``ValueError`` (its square overflows, and beyond about ``1e16`` rad the
     angle modulo ``2 pi`` is lost to rounding anyway). A finite ``t`` is required.
     """

@@ -93,7 +93,7 @@ class Trajectory:
 
     @property
     def failures(self) -> tuple[Failure, ...]:
-        """The failed bodies as records (:class:`Failure`: body, time, reason), in body
+        """The failed bodies as records (``Failure``: body, time, reason), in body
         order; empty for a complete or interrupted run. Read these rather than the
         warning's words."""
         if np.ndim(self.status) == 0:
