@@ -5,10 +5,17 @@ Imported as ``from support import ...`` (``tests`` is on pytest's ``pythonpath``
 
 from __future__ import annotations
 
+import json
 import math
+import signal
+import subprocess
+import sys
+import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 import liebody
 import liebody.testing
@@ -90,3 +97,29 @@ def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):
     state = np.concatenate([q0, L0]).astype(float)
     drive(plan, h, n, state, q_out, m_out)
     return state, q_out, m_out
+
+
+_ROOT = Path(__file__).resolve().parents[1]
+
+
+def interrupt_child(script: str, args: list[str], wait: float) -> tuple[list[dict], float]:
+    """Run ``script``, SIGINT it ``wait`` s after it prints "ready"; its JSON lines and
+    the seconds from the signal to its first line after it."""
+    proc = subprocess.Popen([sys.executable, "-c", script, *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=_ROOT)
+    try:
+        assert proc.stdout.readline().strip() == "ready", proc.stderr.read()
+        time.sleep(wait)
+        sent = time.perf_counter()
+        proc.send_signal(signal.SIGINT)
+        first = proc.stdout.readline()
+        latency = time.perf_counter() - sent
+        # bounded: a child that ignores the signal fails the test, never hangs it
+        rest, stderr = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the child did not finish within 120 s of SIGINT")
+    finally:
+        proc.kill()
+    lines = [json.loads(x) for x in (first + rest).splitlines() if x.strip()]
+    assert lines and proc.returncode == 0, (proc.returncode, stderr)
+    return lines, latency

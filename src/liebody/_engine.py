@@ -53,6 +53,15 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
             dref, dmax)
 
 
+def groups_info(groups, runners) -> dict:
+    """``Trajectory.info`` of an ensemble: the plan's choices and whether the SIMD kernels
+    ran, for its one group of bodies, or per group (with the group's bodies)."""
+    if len(groups) == 1:
+        return dict(groups[0][1].info, simd=runners[0][1])
+    return {"groups": [dict(plan.info, bodies=idx, simd=r[1])
+                       for (idx, plan), r in zip(groups, runners, strict=True)]}
+
+
 def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
                ctl, q_out, m_out, saved, done, status, torque_addr, rows, dref, dmax) -> tuple:
     """The argument list of a batch or SIMD driver (``batch_drivers.BATCH_RUNNERS``,

@@ -31,6 +31,7 @@ from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-ex
     failure_message,
     failure_summary,
     first_slice,
+    groups_info,
     interrupt_after_call,
     resolve_threads,
     sample_diagnostics,
@@ -135,11 +136,7 @@ class EnsembleRun:
     def stepped(self) -> Trajectory:
         groups = self.method.plans(self.scene, self.m0, self.dt)
         runners = [self._runner(plan) for _, plan in groups]
-        if len(groups) == 1:
-            self.info = dict(groups[0][1].info, simd=runners[0][1])
-        else:
-            self.info = {"groups": [dict(plan.info, bodies=idx, simd=r[1])
-                                    for (idx, plan), r in zip(groups, runners, strict=True)]}
+        self.info = groups_info(groups, runners)
         work = [self._group(idx, plan, r[0], r[1])
                 for (idx, plan), r in zip(groups, runners, strict=True)]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]

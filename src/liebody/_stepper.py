@@ -28,6 +28,7 @@ import warnings
 import numpy as np
 
 from liebody import _methods
+from liebody._engine import groups_info
 from liebody._kernels import stages as S
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
@@ -253,11 +254,7 @@ class Stepper:
             return
         groups = self._method.plans(self._scene, self._plan_m, self._dt)
         runners = [self._runner(plan) for _, plan in groups]
-        if len(groups) == 1:
-            self.info = dict(groups[0][1].info, simd=runners[0][1])
-        else:
-            self.info = {"groups": [dict(plan.info, bodies=idx, simd=r[1])
-                                    for (idx, plan), r in zip(groups, runners, strict=True)]}
+        self.info = groups_info(groups, runners)
         self._groups = []
         for (idx, plan), (runner, simd) in zip(groups, runners, strict=True):
             # a row per body where controls may be set per body, else as the plan stores

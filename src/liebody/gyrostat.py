@@ -23,7 +23,7 @@ import numpy as np
 
 from liebody._validate import as_float_array
 from liebody.rigid_body import RigidBody
-from liebody.scenes import Capabilities, Scene, _init_body
+from liebody.scenes import Capabilities, Scene, _init_body, _per_body
 
 __all__ = ["Gyrostat"]
 
@@ -95,23 +95,15 @@ class Gyrostat(Scene):
         """``H = (L - l)^T I^-1 (L - l) / 2`` at total body-frame momenta ``L`` ``(..., 3)``
         (a batch: the body axis first)."""
         L = as_float_array("L", L, last_dim=3)
-        d = L - _rows_like(self.rotor_momentum, L)
-        return 0.5 * np.sum(d * d / _rows_like(np.asarray(self.moments), L), axis=-1)
+        d = L - _per_body(self.rotor_momentum, L)
+        return 0.5 * np.sum(d * d / _per_body(self.moments, L), axis=-1)
 
     def omega(self, L) -> np.ndarray:
         """The body's angular velocity ``I^-1 (L - l)`` (body frame) at momenta ``L``."""
         L = as_float_array("L", L, last_dim=3)
-        return (L - _rows_like(self.rotor_momentum, L)) / _rows_like(np.asarray(self.moments),
-                                                                      L)
+        return (L - _per_body(self.rotor_momentum, L)) / _per_body(self.moments, L)
 
     def __repr__(self) -> str:
         if self.batch_shape:
             return f"Gyrostat(<batch of {self.batch_shape[0]} gyrostats>)"
         return f"Gyrostat(body={self.body!r}, rotor_momentum={self.rotor_momentum.tolist()})"
-
-
-def _rows_like(param: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """A per-body ``(N, 3)`` parameter shaped to broadcast against ``(N, ..., 3)``."""
-    if param.ndim < 2:
-        return param
-    return param.reshape(param.shape[:1] + (1,) * (values.ndim - 2) + param.shape[1:])

@@ -4,17 +4,11 @@ are kept on the exception's trajectory."""
 
 from __future__ import annotations
 
-import json
-import signal
-import subprocess
-import sys
 import textwrap
-import time
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+from support import interrupt_child
 
 _CHILD = textwrap.dedent("""
 import json, signal, sys, time
@@ -60,23 +54,7 @@ except liebody.IntegrationInterrupted as exc:
 def test_ctrl_c_with_a_slow_torque_is_seen_within_seconds_and_keeps_the_steps_done(bodies):
     """One body, and an ensemble on two threads (every thread finishes its slice before
     the interruption is raised; the slices finished are kept for every body)."""
-    proc = subprocess.Popen([sys.executable, "-c", _CHILD, "100000", str(bodies)],
-                            stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    try:
-        assert proc.stdout.readline().strip() == "ready", proc.stderr.read()
-        time.sleep(2.0)
-        sent = time.perf_counter()
-        proc.send_signal(signal.SIGINT)
-        first = proc.stdout.readline()
-        latency = time.perf_counter() - sent
-        rest, stderr = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        pytest.fail("the child did not finish within 120 s of SIGINT")
-    finally:
-        proc.kill()
-    lines = [json.loads(x) for x in (first + rest).splitlines() if x.strip()]
-    assert proc.returncode == 0 and lines, stderr
+    lines, latency = interrupt_child(_CHILD, ["100000", str(bodies)], 2.0)
     out, check = lines[0], lines[-1]
     assert out["interrupted"], out
     assert out["cost"] > 1.2e-3  # the torque is slow, or the test proves nothing

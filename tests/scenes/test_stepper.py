@@ -15,13 +15,10 @@ import itertools
 import json
 import math
 import pickle
-import signal
-import subprocess
 import sys
 import textwrap
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,8 +28,8 @@ import liebody
 from liebody import _stepper
 from liebody import quaternion as Q
 from liebody._kernels import batch
+from support import interrupt_child
 
-ROOT = Path(__file__).resolve().parents[2]
 N_ENS = 300  # well above SIMD_MIN_BODIES, more than one block of 128 bodies
 assert batch.SIMD_MIN_BODIES <= 3 < N_ENS
 
@@ -371,29 +368,6 @@ _ENSEMBLE_CHILD = textwrap.dedent("""
 """)
 
 
-def _interrupt_child(script: str, args: list[str], wait: float) -> tuple[list[dict], float]:
-    """Run ``script``, SIGINT it ``wait`` s after it prints "ready"; its JSON lines and
-    the seconds from the signal to its first line after it."""
-    proc = subprocess.Popen([sys.executable, "-c", script, *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    try:
-        assert proc.stdout.readline().strip() == "ready", proc.stderr.read()
-        time.sleep(wait)
-        sent = time.perf_counter()
-        proc.send_signal(signal.SIGINT)
-        first = proc.stdout.readline()
-        latency = time.perf_counter() - sent
-        # bounded: a child that ignores the signal fails the test, never hangs it
-        rest, stderr = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        pytest.fail("the child did not finish within 120 s of SIGINT")
-    finally:
-        proc.kill()
-    lines = [json.loads(x) for x in (first + rest).splitlines() if x.strip()]
-    assert lines and proc.returncode == 0, (proc.returncode, stderr)
-    return lines, latency
-
-
 @pytest.mark.parametrize(("method", "simd"), [("splitting2", None), ("splitting2", False),
                                               ("rattle", None)])
 def test_ctrl_c_on_an_ensemble_on_threads(method, simd):
@@ -401,7 +375,7 @@ def test_ctrl_c_on_an_ensemble_on_threads(method, simd):
     their slice while the state was restored under them, later steps marked healthy
     bodies failed, then SIGSEGV): the threads are joined, no body is marked, and the
     stepper is one that took exc.step steps, bit for bit."""
-    lines, latency = _interrupt_child(_ENSEMBLE_CHILD, [method, json.dumps(simd)], 2.0)
+    lines, latency = interrupt_child(_ENSEMBLE_CHILD, [method, json.dumps(simd)], 2.0)
     first, out = lines[0], lines[-1]
     assert first["interrupted"] and latency < 10.0
     assert out["step"] == out["steps"] > 0 and out["t"] and out["finite"]
@@ -451,7 +425,7 @@ def test_ctrl_c_stops_steps_with_a_slow_torque_within_seconds():
     """A step of milliseconds (a slow user torque): SIGINT is seen within seconds, since
     the slices are sized by their measured cost (before: slices of 65,536 steps, about
     100 s to see it), and the steps done are kept."""
-    lines, latency = _interrupt_child(_SLOW_CHILD, ["400000"], 1.5)
+    lines, latency = interrupt_child(_SLOW_CHILD, ["400000"], 1.5)
     first, out = lines[0], lines[-1]
     assert first["interrupted"], first
     assert first["cost"] > 5e-4  # the torque is slow, or the test proves nothing

@@ -102,7 +102,7 @@ KICK_NEWTON = 30
 # a status.
 
 
-@jit
+@jit(inline="always")
 def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)

@@ -21,7 +21,7 @@ from liebody._kernels.stages import P_TORQUE
 from liebody._models import dispatch
 
 
-@jit
+@jit(inline="always")
 def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
     """Body torque of the model named by the stage row ``p`` (``P_TORQUE``), with the
     model's parameter block ``mp`` and a user torque's callback address ``torque_addr``

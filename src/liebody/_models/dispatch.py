@@ -14,7 +14,7 @@ from liebody._models import gravity_gradient, uniform_gravity, user_torque
 PYTHON_POTENTIALS = {uniform_gravity.CODE: uniform_gravity.potential_py}
 
 
-@jit
+@jit(inline="always")
 def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
     """Body torque of model ``code`` with parameter block ``mp`` at ``(t, q, m)``; ``p`` is
     the stage's parameter row (the controls of a user torque), ``addr`` the address of a

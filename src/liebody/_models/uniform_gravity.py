@@ -35,7 +35,7 @@ def gravity_torque(w, x, y, z, c1, c2, c3):
     return g2 * c3 - g3 * c2, g3 * c1 - g1 * c3, g1 * c2 - g2 * c1
 
 
-@jit
+@jit(inline="always")
 def torque(t, w, x, y, z, mp):
     """The model's torque from its parameter block ``mp`` (``t`` unused)."""
     return gravity_torque(w, x, y, z, mp[0], mp[1], mp[2])

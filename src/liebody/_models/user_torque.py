@@ -235,7 +235,7 @@ def _call_torque_intrinsic():
 call_torque = _call_torque_py if config.DISABLE_JIT else _call_torque_intrinsic()
 
 
-@jit
+@jit(inline="always")
 def torque(t, w, x, y, z, m1, m2, m3, p, addr, mp):
     """The user torque with the stage's controls ``p[P_U0:]`` and the parameters ``mp``."""
     if addr == 0:
