@@ -192,14 +192,18 @@ class Stepper:
         self._u = as_controls(scene, controls, n)
         if n is not None and self._u is not None:  # one row per body
             self._u = np.array(np.broadcast_to(self._u, (n, self._u.shape[-1])))
+        # integrate()'s rules: an orientation_only promise is checked, and in an ensemble a
+        # torque that fails at one body's start fails that body only
+        promise = (self._model.function is not None
+                   and "momentum" not in scene.capabilities.torque)
         if n is None:
-            _check_torque(self._model, q, m, self._u)
+            _check_torque(self._model, q, m, self._u, orientation_only=promise)
             self._state = np.concatenate([q, m])
         else:
             self._state = np.empty((n, 7))
             self._state[:, :4], self._state[:, 4:] = q, m
             _check_torque(self._model, self._state[0, :4], self._state[0, 4:],
-                          _first_row(self._u))
+                          _first_row(self._u), ensemble=True, orientation_only=promise)
         self._status = np.zeros(1 if n is None else n, dtype=np.int64)
         self._t0 = 0.0  # the clock: t = t0 + k dt, k the steps since t was last set
         self._k = 0.0

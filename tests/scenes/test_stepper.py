@@ -559,3 +559,35 @@ def test_steps_from_many_threads_are_serialised(bodies):
     assert math.isclose(s.t, (8 * calls + 1) * n * 1e-3, rel_tol=1e-12)
     np.testing.assert_array_equal(s.q, serial.q)
     np.testing.assert_array_equal(s.L, serial.L)
+
+
+# ----------------------------------------------------------------------- integrate()'s rules
+
+
+@njit
+def _depends_on_L(t, q, L):
+    return -0.1 * L
+
+
+@njit
+def _nan_for_body_0(t, q, L, p):
+    if p[0] < 0.0:
+        return np.array([np.nan, 0.0, 0.0])
+    return np.array([0.0, 0.0, p[0] * q[3]])
+
+
+def test_the_stepper_checks_an_orientation_only_promise_as_integrate_does():
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]), _depends_on_L,
+                               orientation_only=True)
+    with pytest.raises(ValueError, match="orientation_only"):
+        liebody.Stepper(scene, L0=[1.0, 0.5, 0.2], dt=0.01)
+
+
+def test_a_stepper_ensemble_fails_a_body_whose_torque_fails_at_its_start_alone():
+    """Body 0 as any other (integrate's rule): before, the Stepper refused the ensemble."""
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]), _nan_for_body_0,
+                               params=[[-1.0], [0.5], [0.7]], orientation_only=True)
+    st = liebody.Stepper(scene, L0=[1.0, 0.5, 0.2], dt=0.01)
+    with pytest.warns(RuntimeWarning):
+        st.step(5)
+    assert list(st.failed) == [True, False, False]
