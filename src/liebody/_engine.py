@@ -17,6 +17,7 @@ import warnings
 import numpy as np
 
 from liebody._kernels import stages as S
+from liebody._plan import body_rows
 from liebody.errors import InvariantWarning, TorqueError
 from liebody.trajectory import Trajectory
 
@@ -68,8 +69,8 @@ def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, fina
     ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group;
     ``params``: the group's stage parameters (``(1, s, P)`` shared, or one row per body
     of the group)."""
-    return (plan.kinds, plan.axes, plan.coefs, plan.clock,
-            params if params.shape[0] == 1 else params[rows], merge_ends, h, t0, step0,
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, body_rows(params, rows),
+            merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
             torque_addr, plan.model_rows(rows), dref, dmax)
 

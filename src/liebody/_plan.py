@@ -298,15 +298,17 @@ class Plan:
 
     def model_rows(self, c) -> np.ndarray:
         """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
-        return self.model if self.model.shape[0] == 1 else self.model[c]
-
-    def param_rows(self, c) -> np.ndarray:
-        """The stage parameters of the bodies ``c`` (a slice) of this plan."""
-        return self.params if self.params.shape[0] == 1 else self.params[c]
+        return body_rows(self.model, c)
 
     @property
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
+
+
+def body_rows(a: np.ndarray, c) -> np.ndarray:
+    """The rows of the bodies ``c`` (a slice) of a per-body array, or its one shared row
+    (an array of one row stands for every body)."""
+    return a if a.shape[0] == 1 else a[c]
 
 
 #: the parameter block of a scene without a torque model

@@ -30,6 +30,7 @@ import numpy as np
 from liebody import _methods
 from liebody._engine import groups_info
 from liebody._kernels import stages as S
+from liebody._plan import body_rows
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import ConvergenceError, IntegrationError, IntegrationInterrupted
@@ -275,8 +276,7 @@ class Stepper:
         and the slice (``t0, step0, n_steps, save_every, final``): views, built once."""
         p = g["plan"]
         return {"g": g, "c": c, "fn": g["runner"], "resolved": False,
-                "head": (p.kinds, p.axes, p.coefs, p.clock,
-                         g["params"] if g["params"].shape[0] == 1 else g["params"][c],
+                "head": (p.kinds, p.axes, p.coefs, p.clock, body_rows(g["params"], c),
                          g["merge"], self._dt),
                 "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
                          g["done"][c], g["status"][c],

@@ -564,12 +564,19 @@ def _kick_block(buf, c1r, c2r, c3r, nb, tau):
         n1 = g2 * c3 - g3 * c2
         n2 = g3 * c1 - g1 * c3
         n3 = g1 * c2 - g2 * c1
-        f = buf[FAIL0 + i]
-        ok = abs(n1) + abs(n2) + abs(n3) < math.inf
-        buf[FAIL0 + i] = f if (f != 0.0 or ok) else float(STATUS_TORQUE)
-        buf[M10 + i] = buf[M10 + i] + tau * n1
-        buf[M20 + i] = buf[M20 + i] + tau * n2
-        buf[M30 + i] = buf[M30 + i] + tau * n3
+        _add_kick(buf, i, n1, n2, n3, tau)
+
+
+@jit(inline="always")
+def _add_kick(buf, i, n1, n2, n3, tau):
+    """``m += tau n`` for body ``i`` of a block, flagging ``STATUS_TORQUE`` (the first flag
+    wins) when the torque ``n`` is not finite."""
+    f = buf[FAIL0 + i]
+    ok = abs(n1) + abs(n2) + abs(n3) < math.inf
+    buf[FAIL0 + i] = f if (f != 0.0 or ok) else float(STATUS_TORQUE)
+    buf[M10 + i] = buf[M10 + i] + tau * n1
+    buf[M20 + i] = buf[M20 + i] + tau * n2
+    buf[M30 + i] = buf[M30 + i] + tau * n3
 
 
 @jit
@@ -585,13 +592,7 @@ def _model_kick_block(buf, mc, j, nb, t, tau):
     dispatch.torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, buf,
                           (W0, X0, Y0, Z0, M10, M20, M30), out, mc[8], mc[9])
     for b in range(nb):
-        n1, n2, n3 = out[0, b], out[1, b], out[2, b]
-        f = buf[FAIL0 + b]
-        ok = abs(n1) + abs(n2) + abs(n3) < math.inf
-        buf[FAIL0 + b] = f if (f != 0.0 or ok) else float(STATUS_TORQUE)
-        buf[M10 + b] = buf[M10 + b] + tau * n1
-        buf[M20 + b] = buf[M20 + b] + tau * n2
-        buf[M30 + b] = buf[M30 + b] + tau * n3
+        _add_kick(buf, b, out[0, b], out[1, b], out[2, b], tau)
 
 
 @jit(inline="always")

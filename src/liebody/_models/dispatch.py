@@ -32,7 +32,7 @@ def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
 def scratch_size(code, mp):
     """Numbers :func:`prepare` writes for model ``code``."""
     if code == gravity_gradient.CODE:
-        return 4 * int(mp[3])
+        return gravity_gradient.scratch_size(mp)
     return 1
 
 

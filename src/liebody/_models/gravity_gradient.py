@@ -58,6 +58,12 @@ def torque(t, w, x, y, z, mp):
 
 
 @jit
+def scratch_size(mp):
+    """Numbers :func:`prepare` writes: the position and ``GM`` of every source."""
+    return 4 * int(mp[3])
+
+
+@jit
 def prepare(t, mp, scratch):
     """The part of the torque that depends on the time only, the same for every body of an
     ensemble (the sources are shared): the sources' positions at ``t``, into ``scratch``."""
