@@ -42,6 +42,7 @@ function is built in ``__init__``; a top with a different mass distribution is a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -643,7 +644,10 @@ class GravityGradient(Scene):
         The body (its inertia about the centre of mass); a :meth:`RigidBody.batch` makes an
         ensemble with per-body inertia.
     sources
-        A sequence of ``(GM, orbit)`` pairs (``GM > 0``).
+        A sequence of ``(GM, orbit)`` pairs (``GM > 0``), the orbits
+        :class:`~liebody.orbits.Circular`, :class:`~liebody.orbits.Kepler` or sampled
+        :class:`~liebody.orbits.Table` ones in any mix. A table covers a span of times
+        only (:attr:`time_span`): a run that leaves it stops with a torque failure.
     free_flow
         As for :class:`HeavyTop`.
 
@@ -679,7 +683,7 @@ class GravityGradient(Scene):
             GM = as_positive_float(f"sources[{k}] GM", GM)
             if not isinstance(orbit, Orbit):
                 raise TypeError(f"sources[{k}]: the orbit must be a liebody.orbits orbit "
-                                f"(Circular, Kepler), got {type(orbit).__name__}")
+                                f"(Circular, Kepler, Table), got {type(orbit).__name__}")
             out.append((GM, orbit))
         object.__setattr__(self, "sources", tuple(out))
 
@@ -689,13 +693,25 @@ class GravityGradient(Scene):
 
     def _blocks(self) -> np.ndarray:
         moments = np.atleast_2d(np.asarray(self.body.moments, dtype=float))
-        tail = np.concatenate([[GM, *orbit.row] for GM, orbit in self.sources])
+        tail = np.concatenate([np.concatenate([[GM], orbit.row]) for GM, orbit in self.sources])
         head = np.column_stack([moments, np.full(len(moments), float(len(self.sources)))])
         return np.hstack([head, np.broadcast_to(tail, (len(moments), tail.size))])
 
     def torque_model(self) -> TorqueModel:
         return _memo(self, "torque_model", lambda: TorqueModel.gravity_gradient(
             self._blocks()))
+
+    @property
+    def time_span(self) -> tuple[float, float]:
+        """The times at which every source's position is known: the intersection of the
+        :class:`~liebody.orbits.Table` orbits' spans (``(-inf, inf)`` without tables). A
+        run that leaves it stops there with a torque failure (the torque is NaN)."""
+        lo, hi = -math.inf, math.inf
+        for _, orbit in self.sources:
+            span = getattr(orbit, "span", None)
+            if span is not None:
+                lo, hi = max(lo, span[0]), min(hi, span[1])
+        return lo, hi
 
     def potential(self, q: np.ndarray, t=0.0) -> np.ndarray:
         """The potential at orientations ``q`` ``(..., 4)`` and times ``t`` (broadcast

@@ -1,8 +1,12 @@
 """The gravity-gradient torque of point masses on an extended body.
 
-Parameter block: ``(I1, I2, I3, K)`` then ``K`` sources of ``1 + orbit.WIDTH`` numbers,
-``(GM, orbit row)``, the orbit giving the source's position ``r`` seen from the body's
-centre of mass in the inertial frame. With ``r_b = R(q)^T r`` (body frame):
+Parameter block: ``(I1, I2, I3, K)`` then ``K`` sources one after the other, each
+``(GM, orbit row)``: the orbit (``liebody._models.orbit``: its first number is its kind,
+and its length follows from the row, ``orbit.size``: 12 numbers for a Kepler orbit,
+``6 + 4 m`` for a table of ``m`` samples) gives the source's position ``r`` seen from the
+body's centre of mass in the inertial frame. The kernels walk the sources in order
+(source ``s + 1`` starts after source ``s``'s orbit row). With ``r_b = R(q)^T r`` (body
+frame):
 
 * torque ``tau = sum_k 3 GM_k / r_k^5 (r_b x I r_b)``;
 * potential ``V = sum_k 3 GM_k / (2 r_k^5) r_b^T I r_b`` (the orientation-dependent part of
@@ -24,7 +28,6 @@ from liebody._models import orbit
 
 CODE = TORQUE_GRAVITY_GRADIENT
 HEAD = 4  # I1, I2, I3, K
-SOURCE = 1 + orbit.WIDTH
 
 
 @jit(inline="always")
@@ -47,13 +50,14 @@ def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, GM):
 @jit
 def torque(t, w, x, y, z, mp):
     t1 = t2 = t3 = 0.0
-    for s in range(int(mp[3])):
-        k = HEAD + s * SOURCE
+    k = HEAD
+    for _ in range(int(mp[3])):
         X, Y, Z = orbit.position(mp, k + 1, t)
         a, b, c = _pull(w, x, y, z, mp[0], mp[1], mp[2], X, Y, Z, mp[k])
         t1 += a
         t2 += b
         t3 += c
+        k += 1 + orbit.size(mp, k + 1)
     return t1, t2, t3
 
 
@@ -67,11 +71,12 @@ def scratch_size(mp):
 def prepare(t, mp, scratch):
     """The part of the torque that depends on the time only, the same for every body of an
     ensemble (the sources are shared): the sources' positions at ``t``, into ``scratch``."""
+    k = HEAD
     for s in range(int(mp[3])):
-        k = HEAD + s * SOURCE
         X, Y, Z = orbit.position(mp, k + 1, t)
         scratch[4 * s], scratch[4 * s + 1], scratch[4 * s + 2] = X, Y, Z
         scratch[4 * s + 3] = mp[k]
+        k += 1 + orbit.size(mp, k + 1)
 
 
 @jit
@@ -120,24 +125,30 @@ def potential(t, w, x, y, z, mp):
     w, x, y, z = w / n, x / n, y / n, z / n
     I1, I2, I3 = mp[0], mp[1], mp[2]
     V = 0.0
-    for s in range(int(mp[3])):
-        k = HEAD + s * SOURCE
+    k = HEAD
+    for _ in range(int(mp[3])):
         X, Y, Z = orbit.position(mp, k + 1, t)
         r1, r2, r3 = qrotate_inv(w, x, y, z, X, Y, Z)
         rr = r1 * r1 + r2 * r2 + r3 * r3
         V += 1.5 * mp[k] / (rr * rr * math.sqrt(rr)) * (I1 * r1 * r1 + I2 * r2 * r2
                                                          + I3 * r3 * r3)
+        k += 1 + orbit.size(mp, k + 1)
     return V
 
 
 @jit
 def torque_bound(mp):
     """``|r x I r| = |r x (I - I_min) r| <= (I_max - I_min) r^2``, and ``r`` is at least
-    the pericentre distance ``a (1 - e)``: ``sum_k 3 GM_k (I_max - I_min) / r_min^3``."""
+    the orbit's ``orbit.min_distance`` (the pericentre distance ``a (1 - e)``; for a table
+    a lower bound on its interpolant's distance): ``sum_k 3 GM_k (I_max - I_min) /
+    r_min^3`` (inf where no positive lower bound is known)."""
     spread = max(mp[0], mp[1], mp[2]) - min(mp[0], mp[1], mp[2])
     b = 0.0
-    for s in range(int(mp[3])):
-        k = HEAD + s * SOURCE
-        r = mp[k + 3] * (1.0 - mp[k + 1])  # a (1 - e)
+    k = HEAD
+    for _ in range(int(mp[3])):
+        r = orbit.min_distance(mp, k + 1)
+        if not r > 0.0:
+            return math.inf
         b += 3.0 * mp[k] * spread / (r * r * r)
+        k += 1 + orbit.size(mp, k + 1)
     return b * (1.0 + 1e-12)
