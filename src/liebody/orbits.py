@@ -204,7 +204,7 @@ class Table(Orbit):
     ``t_j .. t_{j+p-1}`` is ``r(t) - P(t) = r[t_j, ..., t_{j+p-1}, t] omega(t)``,
     ``omega(t) = prod_a (t - t_{j+a})`` (K. E. Atkinson, *An Introduction to Numerical
     Analysis*, 2nd ed., Wiley, 1989, sect. 3.2: the divided-difference form of the
-    interpolation error). :attr:`error_estimate` replaces the unknown divided difference
+    interpolation error). ``error_estimate`` replaces the unknown divided difference
     with the two divided differences of order ``p`` of the samples next to it (the
     stencil and one more sample on either side; the larger in norm), takes ``max
     |omega|`` over each interval (33 points of it), and reports the largest product over
