@@ -48,10 +48,10 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
     """The argument list of a one-body driver (``driver.RUNNERS``), in its order: the
     plan's stage table with ``params`` (the plan's, or a copy holding controls), the
     clock, the slice, the state and outputs, the user callback, the model's parameter
-    block and the diagnostics' arrays."""
+    block, the diagnostics' arrays and the model's token."""
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.model[0],
-            dref, dmax)
+            dref, dmax, plan.token)
 
 
 def groups_info(groups, runners) -> dict:
@@ -72,7 +72,7 @@ def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, fina
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, body_rows(params, rows),
             merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
-            torque_addr, plan.model_rows(rows), dref, dmax)
+            torque_addr, plan.model_rows(rows), dref, dmax, plan.token)
 
 
 def resolve_threads(threads) -> int:

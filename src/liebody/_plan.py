@@ -295,6 +295,9 @@ class Plan:
     family: int
     info: dict = field(default_factory=dict)
     model: np.ndarray = field(default_factory=lambda: _NO_MODEL)
+    #: the drivers' model token (``dispatch.token``): the one torque model code of the
+    #: stage rows, or "any" where they hold several
+    token: tuple = (0,)
 
     def model_rows(self, c) -> np.ndarray:
         """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
@@ -340,6 +343,8 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         params = np.stack(rows, axis=1)  # (1, s, P)
     else:
         params = np.stack([np.broadcast_to(r, (n, S.N_PARAMS)) for r in rows], axis=1)
+    codes = {int(c) for c in np.unique(params[:, :, S.P_TORQUE])} - {S.TORQUE_NONE}
+    code = codes.pop() if len(codes) == 1 else (S.TORQUE_NONE if not codes else -1)
     return Plan(
         kinds=kinds,
         axes=np.array([s.axis for s in merged], dtype=np.int64),
@@ -350,6 +355,7 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         family=S.family_of(kinds),
         info=dict(info or {}),
         model=_NO_MODEL if model is None else model,
+        token=(0,) * (code + 2),  # dispatch.token(code), without importing the kernels
     )
 
 

@@ -1090,7 +1090,9 @@ def _simd_runner(family: int, diag: bool = False):
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
             final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
-            dmax):
+            dmax, model=(0,)):
+        # (``model``, the one-body drivers' model token, is not used: the block kernels
+        # are compiled once for every model)
         ns = kinds.shape[0]
         n = state.shape[0]
         bad = ns == 0

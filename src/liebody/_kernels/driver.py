@@ -103,23 +103,23 @@ KICK_NEWTON = 30
 
 
 @jit(inline="always")
-def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
-    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
 
 
 @jit
-def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)``."""
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     return w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3, STATUS_OK
 
 
 @jit
-def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """KICK (exact flow of an orientation-only torque) or KICK_IMPLICIT.
 
     The implicit kick solves ``k = m + tau N(t, q, k)``: the adjoint of the explicit one,
@@ -128,7 +128,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     ``tau |dN/dm| < 1``), then Newton with a finite-difference Jacobian (stiff torques
     such as strong damping), each to round-off.
     """
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     e1, e2, e3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3  # the explicit kick
@@ -137,7 +137,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     k1, k2, k3 = e1, e2, e3
     scale = abs(m1) + abs(m2) + abs(m3)
     for _ in range(KICK_FIXED_POINT):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, model)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
@@ -150,7 +150,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     # Newton on G(k) = k - m - tau N(k), from the explicit kick
     k1, k2, k3 = e1, e2, e3
     for _ in range(KICK_NEWTON):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, model)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         g1, g2, g3 = k1 - m1 - tau * n1, k2 - m2 - tau * n2, k3 - m3 - tau * n3
@@ -159,9 +159,9 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
             return w, x, y, z, k1, k2, k3, STATUS_OK
         # J = 1 - tau dN/dk, by forward differences
         e = 1.5e-8 * size
-        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr, mp)
-        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr, mp)
-        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr, mp)
+        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr, mp, model)
+        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr, mp, model)
+        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr, mp, model)
         if not (ok1 and ok2 and ok3):
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         f = tau / e
@@ -204,17 +204,17 @@ def _damp(p, tau, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """The splittings' stages other than rotations: kicks and dissipation."""
     if kind == KICK or kind == KICK_IMPLICIT:
-        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     if kind == DAMP:
         return _damp(p, tau, w, x, y, z, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
 @jit
-def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """Any stage kind (the generic family, for plans that mix kinds of several families)."""
     if kind == AXIS:
         r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
@@ -229,27 +229,27 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp):
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EULER:
-        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
     elif kind == RK4:
-        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
     elif kind == LIE_EULER:
-        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
     elif kind == RKMK4:
-        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp)
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
     else:
-        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 # ------------------------------------------------------------------ the loop
 @jit
-def _diagnose(t, w, x, y, z, m1, m2, m3, mp, dref, dmax):
+def _diagnose(t, w, x, y, z, m1, m2, m3, mp, dref, dmax, model):
     """Update the running diagnostics ``dmax`` with the state at time ``t`` (see
     :func:`_runner`)."""
     n2 = w * w + x * x + y * y + z * z
     d1, d2, d3 = m1 - dref[10], m2 - dref[11], m3 - dref[12]  # (m - l: a gyrostat's rotor)
     T = 0.5 * (d1 * d1 * dref[0] + d2 * d2 * dref[1] + d3 * d3 * dref[2])
-    V = dispatch.potential(int(dref[3]), mp, t, w, x, y, z)
+    V = dispatch.potential_of(model, int(dref[3]), mp, t, w, x, y, z)
     e = abs(T + V - dref[6]) * dref[7]
     qe = abs(math.sqrt(n2) - 1.0)
     le = abs(math.sqrt(m1 * m1 + m2 * m2 + m3 * m3) - dref[8]) * dref[9]
@@ -275,7 +275,7 @@ def _runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, torque_addr, mp, dref, dmax):
+            final, state, ctl, q_out, m_out, torque_addr, mp, dref, dmax, model=(0,)):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
         The run may be cut into slices (calls) of any length without changing a bit of
@@ -288,8 +288,10 @@ def _runner(family: int, diag: bool = False):
         step of the run, and the last step of the last slice (``final``), is written to
         consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
         ``torque_addr`` is the address of the user torque callback
-        (``user_torque.adapt_user_torque``), 0 for none, and ``mp`` the torque model's
-        parameter block (``liebody._models``; a 1-d array).
+        (``user_torque.adapt_user_torque``), 0 for none, ``mp`` the torque model's
+        parameter block (``liebody._models``; a 1-d array) and ``model`` the model's token
+        (``dispatch.token(code)``: numba compiles a driver per model, holding that model's
+        torque and potential only; omitted, the kernels dispatch on the stage rows' codes).
 
         Returns ``(steps_done, n_saved, status)``. On a non-finite state, a failed
         implicit solve or a torque that fails, the loop stops and ``state`` holds the
@@ -338,10 +340,10 @@ def _runner(family: int, diag: bool = False):
                 elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
                     if family == F_KICKED and kind == KICK:
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
-                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                     elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
                         w, x, y, z, m1, m2, m3, status = _kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                     elif family == F_SPLITTING and kind == DAMP:
                         w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
                                                                m1, m2, m3)
@@ -368,29 +370,34 @@ def _runner(family: int, diag: bool = False):
                                                               m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                 elif family == F_EXACT:
                     if kind == EXACT:
                         w, x, y, z, m1, m2, m3, status = _exact(params[j], tau, w, x, y, z,
                                                                 m1, m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick_or_damp(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                 elif family == F_EULER:
-                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
+                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                                   model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RK4:
-                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
+                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                                 model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_LIE_EULER:
-                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
+                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                                       model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RKMK4:
-                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp)
+                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                                   model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 else:
                     w, x, y, z, m1, m2, m3, status = _any_stage(
-                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp)
+                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp,
+                        model)
                 if status != STATUS_OK:
                     break
                 t += clock[j] * h
@@ -405,7 +412,7 @@ def _runner(family: int, diag: bool = False):
                 return step, n_saved, status
             if diag:
                 _diagnose(t0 + (step0 + step + 1) * h, w, x, y, z, m1, m2, m3, mp, dref,
-                          dmax)
+                          dmax, model)
             if save_now:
                 until_save = save_every
                 q_out[n_saved, 0], q_out[n_saved, 1] = w, x

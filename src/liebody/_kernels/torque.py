@@ -22,11 +22,13 @@ from liebody._models import dispatch
 
 
 @jit(inline="always")
-def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp):
+def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """Body torque of the model named by the stage row ``p`` (``P_TORQUE``), with the
     model's parameter block ``mp`` and a user torque's callback address ``torque_addr``
-    (0 for none)."""
-    return dispatch.torque(int(p[P_TORQUE]), mp, p, torque_addr, t, w, x, y, z, m1, m2, m3)
+    (0 for none); ``model`` the run's model token (``dispatch.token``), which selects the
+    model at compile time."""
+    return dispatch.torque_of(model, int(p[P_TORQUE]), mp, p, torque_addr, t, w, x, y, z,
+                              m1, m2, m3)
 
 
 @jit

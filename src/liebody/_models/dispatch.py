@@ -4,9 +4,32 @@ from __future__ import annotations
 
 import math
 
-from liebody._kernels._jit import jit
-from liebody._kernels.stages import N_CONTROLS, P_U0
+from numba.extending import overload
+
+from liebody._kernels._jit import jit, overload_options
+from liebody._kernels.stages import MAX_MODEL_CODE, N_CONTROLS, P_U0, TORQUE_NONE
 from liebody._models import gravity_gradient, uniform_gravity, user_torque
+
+#: the model code of :func:`token` for "any model" (the kernels read it from the stage rows)
+ANY = -1
+
+
+def token(code: int) -> tuple:
+    """The argument that specialises the one-body drivers to the model ``code`` (or
+    :data:`ANY`): a tuple of ``code + 2`` zeros, whose *type* (its length) names the model,
+    so that numba compiles each model's driver apart and types that model's torque only
+    (a heavy top's driver never compiles the Kepler solver of the gravity-gradient model).
+    Uncompiled (``NUMBA_DISABLE_JIT``) the kernels ignore it."""
+    if not (code == ANY or 0 <= code <= MAX_MODEL_CODE):
+        raise ValueError(f"unknown torque model code {code}")
+    return (0,) * (code + 2)
+
+
+def _token_code(tok) -> int:
+    """The model code a token's numba type stands for (:data:`ANY` for anything else, such
+    as an omitted argument)."""
+    count = getattr(tok, "count", None)
+    return count - 2 if isinstance(count, int) and 0 <= count - 2 <= MAX_MODEL_CODE else ANY
 
 #: model code -> the model's potential in plain Python for one orientation,
 #: ``f(t, q, row)`` (models whose potential is a few flops; the others go through
@@ -26,6 +49,63 @@ def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
     if code == user_torque.CODE:
         return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
     return 0.0, 0.0, 0.0
+
+
+def torque_of(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+    """:func:`torque` specialised at compile time to the model of the token ``model``
+    (:func:`token`; for :data:`ANY`, the stage's ``code``). Only the kernels compile it
+    (an overload); uncompiled, it is :func:`torque` of ``code``."""
+    return torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3)
+
+
+@overload(torque_of, jit_options=overload_options())
+def _torque_of(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+    c = _token_code(model)
+    if c == uniform_gravity.CODE:
+        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+            return uniform_gravity.torque(t, w, x, y, z, mp)
+    elif c == gravity_gradient.CODE:
+        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+            return gravity_gradient.torque(t, w, x, y, z, mp)
+    elif c == user_torque.CODE:
+        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+            return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
+    elif c == TORQUE_NONE:
+        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+            return 0.0, 0.0, 0.0
+    else:
+        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+            return torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3)
+    return impl
+
+
+def potential_of(model, code, mp, t, w, x, y, z):
+    """:func:`potential` specialised to the model of the token ``model`` (:func:`token`):
+    that model's potential where ``code`` is its code, else 0 (``code`` is a run's
+    diagnostic code, the model's or ``TORQUE_NONE``); for :data:`ANY`, :func:`potential`
+    of ``code``."""
+    return potential(code, mp, t, w, x, y, z)
+
+
+@overload(potential_of, jit_options=overload_options())
+def _potential_of(model, code, mp, t, w, x, y, z):
+    c = _token_code(model)
+    if c == uniform_gravity.CODE:
+        def impl(model, code, mp, t, w, x, y, z):
+            return uniform_gravity.potential(t, w, x, y, z, mp) if code == c else 0.0
+    elif c == gravity_gradient.CODE:
+        def impl(model, code, mp, t, w, x, y, z):
+            return gravity_gradient.potential(t, w, x, y, z, mp) if code == c else 0.0
+    elif c == user_torque.CODE:
+        def impl(model, code, mp, t, w, x, y, z):
+            return user_torque.potential(t, w, x, y, z, mp) if code == c else 0.0
+    elif c == TORQUE_NONE:
+        def impl(model, code, mp, t, w, x, y, z):
+            return 0.0
+    else:
+        def impl(model, code, mp, t, w, x, y, z):
+            return potential(code, mp, t, w, x, y, z)
+    return impl
 
 
 @jit
