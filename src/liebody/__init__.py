@@ -41,6 +41,8 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "ControlledBody": ("liebody.scenes", "ControlledBody"),
     "GravityGradient": ("liebody.scenes", "GravityGradient"),
     "Gyrostat": ("liebody.gyrostat", "Gyrostat"),
+    "ReactionWheels": ("liebody.wheels", "ReactionWheels"),
+    "wheels": ("liebody.wheels", None),
     "orbits": ("liebody.orbits", None),
     "attitude": ("liebody.attitude", None),
     "Stepper": ("liebody._stepper", "Stepper"),
@@ -83,6 +85,7 @@ if TYPE_CHECKING:  # pragma: no cover
         orbits,
         quaternion,
         testing,
+        wheels,
     )
     from liebody._integrate import integrate  # noqa: F401
     from liebody._methods import (  # noqa: F401
@@ -117,6 +120,7 @@ if TYPE_CHECKING:  # pragma: no cover
         TorqueBody,
     )
     from liebody.trajectory import Trajectory  # noqa: F401
+    from liebody.wheels import ReactionWheels  # noqa: F401
 
 
 def __getattr__(name: str):

@@ -385,6 +385,11 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
+    if getattr(scene, "moving_rotor", False):  # reaction wheels: cut where they saturate
+        from liebody._wheels import integrate_wheels
+
+        return integrate_wheels(scene, method, q_init, m_init, dt, n_steps, save_every,
+                                progress, n_bodies, diagnostics, controls, t0)
     model = scene.torque_model()
     _check_potential(scene, model, q_init, n_bodies, t0)
     u = as_controls(scene, controls, n_bodies)

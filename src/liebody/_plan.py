@@ -64,6 +64,10 @@ class Bodies:
     capabilities: object
     free_flow: str
     torque_code: int
+    #: the rotor momentum changes in time (reaction wheels): the run code writes it into
+    #: the stages' rotor slots (``l(t) = P_L + P_LD (t - P_LT)``), so every body gets the
+    #: gyrostat's stages whatever its initial rotor momentum
+    moving_rotor: bool = False
     #: set once a recipe has read the initial momenta (shared with the bodies taken)
     orbit_read: list = field(default_factory=lambda: [False], repr=False, compare=False)
 
@@ -95,7 +99,8 @@ class Bodies:
 
         return cls(rows(moments, 3), rows(m0, 3), mp,
                    np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)), rows(rotor, 3),
-                   scene.capabilities, scene.free_flow, model.code)
+                   scene.capabilities, scene.free_flow, model.code,
+                   bool(getattr(scene, "moving_rotor", False)))
 
     def __len__(self) -> int:
         return self.moments.shape[0]
@@ -115,8 +120,9 @@ class Bodies:
 
     @property
     def has_rotor(self) -> bool:
-        """Whether any body is a gyrostat (carries rotor momentum)."""
-        return bool(np.any(self.rotor != 0.0))
+        """Whether any body is a gyrostat (carries rotor momentum, or wheels whose
+        momentum changes)."""
+        return self.moving_rotor or bool(np.any(self.rotor != 0.0))
 
     def require_rigid(self, what: str) -> None:
         """Refuse a flow that is the rigid body's for a gyrostat, naming it and the way."""
@@ -214,6 +220,11 @@ class Stage:
     torque: int = S.TORQUE_NONE
     eps: object = 0.0
     rotor: object = (0.0, 0.0, 0.0)
+    #: the rotor momentum may change in time (``P_LD``): the stage reads it at the
+    #: midpoint of its clock interval, so it merges with a neighbour only when their
+    #: clocks are in proportion to their lengths (then the merged midpoint rule is the
+    #: same integral)
+    rotor_moves: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in S.KINDS:
@@ -363,6 +374,8 @@ def _mergeable(a: Stage, b: Stage, n: int) -> bool:
     """Flows of the same Hamiltonian for every body: same mergeable kind, axis, parameters."""
     if not (S.KINDS[a.kind].mergeable and a.kind == b.kind and a.axis == b.axis):
         return False
+    if (a.rotor_moves or b.rotor_moves) and a.coef * b.clock != b.coef * a.clock:
+        return False  # l(t) read at different fractions of the two stages' clocks
     ra, rb = a.rows(n), b.rows(n)
     return ra.shape == rb.shape and np.array_equal(ra, rb)
 
@@ -388,7 +401,8 @@ def axis_stages(b: Bodies, ordering, sym: int) -> list[Stage]:
 
     def rot(k, coef, clock=0.0):
         if b.has_rotor:  # a gyrostat's axis term, (m_k - l_k)^2 / (2 I_k)
-            return Stage(S.AXIS_SHIFTED, coef, clock, axis=k, rate=inv[:, k], rotor=b.rotor)
+            return Stage(S.AXIS_SHIFTED, coef, clock, axis=k, rate=inv[:, k], rotor=b.rotor,
+                         rotor_moves=b.moving_rotor)
         return rotation(k, coef, inv[:, k], sym in (k, SPHERICAL), clock)
 
     return [rot(a, 0.5), rot(bb, 0.5), rot(c, 1.0, clock=1.0), rot(bb, 0.5), rot(a, 0.5)]
@@ -813,7 +827,7 @@ class FlowSequence(Recipe):
                 k = int(name[1]) - 1
                 if b.has_rotor:
                     out.append(Stage(S.AXIS_SHIFTED, frac, clock, axis=k, rate=inv[:, k],
-                                     rotor=b.rotor))
+                                     rotor=b.rotor, rotor_moves=b.moving_rotor))
                 else:
                     out.append(rotation(k, frac, inv[:, k], sym in (k, SPHERICAL), clock))
             elif name == "free":

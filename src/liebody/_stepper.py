@@ -160,6 +160,16 @@ class Stepper:
     1.0
     """
 
+    def __new__(cls, scene=None, *args, **kwargs):
+        """A :class:`~liebody.ReactionWheels` scene gets the wheels' stepper
+        (``liebody._wheels.WheelStepper``: the motor torques as :attr:`u`, the wheel
+        momenta and the saturations)."""
+        if cls is Stepper and getattr(scene, "moving_rotor", False):
+            from liebody._wheels import WheelStepper
+
+            cls = WheelStepper
+        return super().__new__(cls)
+
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, controls=None, threads: int | None = None,
                  simd: bool | None = None) -> None:
@@ -264,7 +274,9 @@ class Stepper:
         for (idx, plan), (runner, simd) in zip(groups, runners, strict=True):
             # a row per body where controls may be set per body, else as the plan stores
             # them (one row when every body shares them)
-            rows = len(idx) if self._scene.controls else plan.params.shape[0]
+            rows = (len(idx) if self._scene.controls or getattr(self._scene, "moving_rotor",
+                                                                   False)
+                    else plan.params.shape[0])
             params = np.array(np.broadcast_to(plan.params, (rows, *plan.params.shape[1:])))
             if self._u is not None:
                 write_controls(params, self._u if self._u.ndim == 1 else self._u[idx])

@@ -56,6 +56,13 @@ class Trajectory:
         With ``integrate(..., diagnostics=True)``: ``max_energy_error``,
         ``max_qnorm_error`` and ``max_casimir_error`` over every step of the run (per
         body for an ensemble).
+    wheels : (n, k) array or None
+        The wheels' absolute axial angular momenta at the samples, for a
+        :class:`~liebody.ReactionWheels` scene (``(N, n, k)`` for an ensemble); ``None``
+        otherwise.
+    saturations : tuple of Saturation
+        The wheels' saturations (:class:`liebody.wheels.Saturation` records: body, time,
+        wheel, ``"torque"`` or ``"speed"``), in time order; empty when none.
 
     The arrays are read-only: derived quantities (``orientation``, energies, ...) are
     computed from them once and stay valid.
@@ -75,6 +82,8 @@ class Trajectory:
     info: dict = field(default_factory=dict)
     status: str = "complete"
     diagnostics: dict | None = None
+    wheels: np.ndarray | None = None
+    saturations: tuple = ()
 
     def __post_init__(self) -> None:
         for name in ("t", "q", "L", "failed_at", "status"):  # (per-body arrays of ensembles)
@@ -149,10 +158,14 @@ class Trajectory:
         if self.diagnostics is not None:
             diag = {k: (float(np.asarray(v)[i]) if np.ndim(v) else v)
                     for k, v in self.diagnostics.items()}
+        wheels, sat = None, ()
+        if self.wheels is not None:
+            wheels = self.wheels[i, :keep]
+            sat = tuple(s._replace(body=None) for s in self.saturations if s.body == i)
         return Trajectory(self.t[:keep], q[:keep], L[:keep], scene, self.method, self.dt,
                           failed_at=None if failed is None or np.isnan(failed) else failed,
                           info=self.info, status=str(np.asarray(self.status)[i]),
-                          diagnostics=diag)
+                          diagnostics=diag, wheels=wheels, saturations=sat)
 
     @property
     def moments(self) -> np.ndarray:
@@ -168,7 +181,11 @@ class Trajectory:
 
     @property
     def kinetic_energy(self) -> np.ndarray:
-        """``T = sum L_i^2 / (2 I_i)``."""
+        """``T = sum L_i^2 / (2 I_i)``; with reaction wheels (:attr:`wheels`) the scene's
+        kinetic energy of body and wheels,
+        ``(L - A h)^T I^-1 (L - A h) / 2 + sum_k h_k^2 / (2 J_k)``."""
+        if self.wheels is not None:
+            return self.scene.kinetic_energy(self.L, self.wheels)
         return 0.5 * np.sum(self.L * self.L / self.moments, axis=-1)
 
     def _finite(self) -> np.ndarray:

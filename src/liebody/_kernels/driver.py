@@ -46,6 +46,7 @@ from liebody._kernels.flows import (
     lie_euler_step,
     rk4_step,
     rkmk4_step,
+    rotor_at,
     sphere_flow,
 )
 from liebody._kernels.stages import (
@@ -76,7 +77,6 @@ from liebody._kernels.stages import (
     P_I1,
     P_I2,
     P_I3,
-    P_L1,
     P_RATE,
     RK4,
     RKMK4,
@@ -214,14 +214,17 @@ def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, mode
 
 
 @jit
-def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
-    """Any stage kind (the generic family, for plans that mix kinds of several families)."""
+def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model,
+               span=0.0):
+    """Any stage kind (the generic family, for plans that mix kinds of several families);
+    ``span`` is the time the clock advances during the stage."""
     if kind == AXIS:
         r = axis_flow(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
     elif kind == AXIS_RECURRING:
         r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, p[P_RATE], tau)
-    elif kind == AXIS_SHIFTED:
-        r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, p[P_RATE], p[P_L1 + axis], tau)
+    elif kind == AXIS_SHIFTED:  # the rotor momentum at the midpoint of the stage's clock
+        r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, p[P_RATE],
+                              rotor_at(p, axis, t + 0.5 * span), tau)
     elif kind == SPHERE:
         r = sphere_flow(w, x, y, z, m1, m2, m3, p[P_RATE], tau)
     elif kind == DMV:
@@ -355,8 +358,14 @@ def _runner(family: int, diag: bool = False):
                                                 params[j, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     elif kind == AXIS_SHIFTED:
+                        # the rotor momentum at the midpoint of the stage's clock interval
+                        # (exact for a rotor momentum linear in time: stages.py)
+                        span = clock[j] * h
+                        if j == last and merge:
+                            span = (clock[last] + clock[0]) * h
                         r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axes[j],
-                                              params[j, P_RATE], params[j, P_L1 + axes[j]], tau)
+                                              params[j, P_RATE],
+                                              rotor_at(params[j], axes[j], t + 0.5 * span), tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     else:
                         r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, P_RATE], tau)
@@ -395,9 +404,12 @@ def _runner(family: int, diag: bool = False):
                                    model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 else:
+                    span = clock[j] * h
+                    if j == last and merge:
+                        span = (clock[last] + clock[0]) * h
                     w, x, y, z, m1, m2, m3, status = _any_stage(
                         kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp,
-                        model)
+                        model, span)
                 if status != STATUS_OK:
                     break
                 t += clock[j] * h

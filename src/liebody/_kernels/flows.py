@@ -40,6 +40,10 @@ from liebody._kernels.stages import (
     P_L1,
     P_L2,
     P_L3,
+    P_LD1,
+    P_LD2,
+    P_LD3,
+    P_LT,
     P_TORQUE,
     TORQUE_NONE,
 )
@@ -72,12 +76,16 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
 @jit
 def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     """Exact flow of ``H_k = rate * (m_k - shift)^2 / 2``: the gyrostat's axis term, ``shift``
-    the rotor momentum ``l_k`` (body frame, constant).
+    the rotor momentum ``l_k`` (body frame).
 
     ``m_k`` is constant; ``m`` and ``q`` turn as in :func:`axis_flow` by
     ``theta = tau * rate * (m_k - l_k)``: the body's own angular velocity about ``e_k`` is
     ``(m_k - l_k) / I_k`` (Hughes, *Spacecraft Attitude Dynamics*, 1986, ch. 7; Wittenburg,
     *Dynamics of Systems of Rigid Bodies*, 1977). Keeps ``|m|`` and the spatial ``L``.
+    For a rotor momentum linear in time (reaction wheels at constant motor torque) the
+    driver passes ``l_k`` at the midpoint of the stage's clock interval
+    (:func:`rotor_at`), which makes the flow exact: ``m_k`` is constant, so the angle is
+    ``rate * integral of (m_k - l_k(t)) dt``.
     """
     return _axis_turn(w, x, y, z, m1, m2, m3, axis,
                       0.5 * tau * rate * (component(axis, m1, m2, m3) - shift))
@@ -303,6 +311,13 @@ def dmv_step(w, x, y, z, m1, m2, m3, I1, I2, I3, h):
     return w, x, y, z, m1, m2, m3, it
 
 
+@jit(inline="always")
+def rotor_at(p, k, t):
+    """The rotor momentum's component ``k`` at time ``t`` from a stage's parameters:
+    ``l_k(t) = P_L[k] + P_LD[k] (t - P_LT)`` (exactly ``P_L[k]`` when it does not move)."""
+    return p[P_L1 + k] + p[P_LD1 + k] * (t - p[P_LT])
+
+
 @jit
 def _omega_e(m1, m2, m3, I1, I2, I3, eps):
     o1, o2, o3 = m1 / I1, m2 / I2, m3 / I3
@@ -330,8 +345,8 @@ def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, model):
     ``m' = m x omega_e + tau(t, q, m)``. ``p``: the stage's parameter row (moments,
     ``eps``, the torque and its controls).
     """
-    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
-                        p[P_L3])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
+                        rotor_at(p, 1, t), rotor_at(p, 2, t))
     dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     return (dw, dx, dy, dz,
@@ -396,8 +411,8 @@ def lie_euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
     symplectic nor symmetric: it drives ``m`` towards the axis of maximum energy.
     """
     n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
-    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
-                        p[P_L3])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
+                        rotor_at(p, 1, t), rotor_at(p, 2, t))
     r = _coadjoint(w, x, y, z, m1, m2, m3, h * o1, h * o2, h * o3)
     return r[0], r[1], r[2], r[3], r[4] + h * n1, r[5] + h * n2, r[6] + h * n3
 
@@ -446,8 +461,8 @@ def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, p, h, torque_add
     """Stage derivatives on SO(3) x R^3: ``(dexpinv(u, h omega_e), h m')`` at ``(q exp(u), m)``."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
     qw, qx, qy, qz = qmul(w, x, y, z, ew, ex, ey, ez)
-    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], p[P_L1], p[P_L2],
-                        p[P_L3])
+    o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
+                        rotor_at(p, 1, t), rotor_at(p, 2, t))
     n1, n2, n3 = torque_value(p, t, qw, qx, qy, qz, m1, m2, m3, torque_addr, mp, model)
     a1, a2, a3 = _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
     return (a1, a2, a3, h * (m2 * o3 - m3 * o2 + n1), h * (m3 * o1 - m1 * o3 + n2),
@@ -459,10 +474,12 @@ def rkmk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
     """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (Munthe-Kaas, BIT 38 (1998) 92).
 
     Order 4; stays on SO(3). Without an external torque ``m`` moves by the coadjoint
-    action (``|m|`` kept exactly); with one, the method runs on SO(3) x R^3 (``m``
-    additive). Energy drifts linearly.
+    action (``|m|`` kept exactly); with one, or with a rotor momentum that changes in
+    time (reaction wheels), the method runs on SO(3) x R^3 (``m`` additive, ``l(t)`` read at
+    each stage's time). Energy drifts linearly.
     """
-    if int(p[P_TORQUE]) == TORQUE_NONE:
+    if (int(p[P_TORQUE]) == TORQUE_NONE and p[P_LD1] == 0.0 and p[P_LD2] == 0.0
+            and p[P_LD3] == 0.0):  # (a moving rotor: the stages below read l(t))
         return _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS],
                                 h, p[P_L1], p[P_L2], p[P_L3])
     b = 0.5 * h

@@ -24,7 +24,19 @@ meaning for every kind (a kind reads the columns it needs and ignores the others
 ``P_U0 .. P_U0 + 5``        control inputs ``u`` passed to a user torque, held
                             constant over each step (zero-order hold); a
                             :class:`liebody.Stepper` sets them between steps
+``P_LD1, P_LD2, P_LD3``     rate of change ``dl/dt`` of the rotor momentum (body
+                            frame; reaction wheels driven by their motors)
+``P_LT``                    the time at which the rotor momentum is ``P_L``: at
+                            time ``t`` it is ``l(t) = P_L + P_LD (t - P_LT)``
 =========================  =================================================
+
+A rotor whose momentum changes linearly in time (:class:`liebody.ReactionWheels`) is
+exact in the axis flows: a stage that runs ``(m_k - l_k(t))^2 / (2 I_k)`` for
+``coef * h`` while the clock runs from ``t`` to ``t + clock * h`` turns the body by
+``coef * h * (m_k - l_k(t + clock * h / 2)) / I_k`` (the integral of a linear function is
+its midpoint value times the interval; the stage is the exact flow of
+``H_k(m, t) + (clock / coef) p_t`` on the phase space extended by the time ``t`` and its
+conjugate ``p_t``).
 
 Adding a stage kind: give it a code and a :class:`Kind` entry in :data:`KINDS`, add
 it to the families that should run it, and implement it in the driver's
@@ -50,7 +62,7 @@ EULER = 8  # explicit Euler on (q, m) in R^7 (baseline)
 RK4 = 9  # classical Runge-Kutta 4 on (q, m) in R^7 (baseline)
 LIE_EULER = 10  # Lie-Euler, coadjoint form (baseline)
 RKMK4 = 11  # Runge-Kutta-Munthe-Kaas 4 (baseline)
-AXIS_SHIFTED = 12  # exact flow of rate * (m_k - l_k)^2 / 2: a gyrostat's axis term
+AXIS_SHIFTED = 12  # exact flow of rate * (m_k - l_k(t))^2 / 2: a gyrostat's axis term
 
 # ------------------------------------------------------------------------ parameter slots
 P_I1, P_I2, P_I3 = 0, 1, 2
@@ -63,8 +75,11 @@ P_U0 = 9
 DREF_WIDTH = 13
 #: the most control inputs a user torque takes
 N_CONTROLS = 6
+P_LD1, P_LD2, P_LD3 = 15, 16, 17  # rate of change of the rotor momentum, body frame
+P_LT = 18  # the time at which the rotor momentum is P_L1..P_L3
 #: width of a parameter row
-N_PARAMS = P_U0 + N_CONTROLS
+N_PARAMS = P_LT + 1
+assert P_LD1 == P_U0 + N_CONTROLS  # the control slots come just before
 
 # --------------------------------------------------------------------------- torque codes
 TORQUE_NONE = 0
@@ -95,7 +110,7 @@ class Kind(NamedTuple):
 _MOMENTS = ("I1", "I2", "I3")
 _TORQUE = ("torque",)
 _CONTROLS = tuple(f"u{i}" for i in range(N_CONTROLS))
-_ROTOR = ("l1", "l2", "l3")
+_ROTOR = ("l1", "l2", "l3", "ld1", "ld2", "ld3", "lt")
 
 #: every stage kind, by code
 KINDS: dict[int, Kind] = {
@@ -118,6 +133,7 @@ KINDS: dict[int, Kind] = {
 #: parameter name -> slot
 SLOTS: dict[str, int] = {"I1": P_I1, "I2": P_I2, "I3": P_I3, "rate": P_RATE,
                          "torque": P_TORQUE, "eps": P_EPS, "l1": P_L1, "l2": P_L2, "l3": P_L3,
+                         "ld1": P_LD1, "ld2": P_LD2, "ld3": P_LD3, "lt": P_LT,
                          **{f"u{i}": P_U0 + i for i in range(N_CONTROLS)}}
 
 # ------------------------------------------------------------------------------ families

@@ -1,0 +1,599 @@
+"""Reaction wheels in the run code: the wheels' momenta as anchored linear pieces, the cuts
+where a wheel saturates, ``integrate()`` and the ``Stepper`` of a
+:class:`~liebody.ReactionWheels` scene.
+
+The kernels see the wheels as a gyrostat's rotor momentum that is linear in time,
+``l(t) = P_L + P_LD (t - P_LT)`` in the stages' rotor slots (``_kernels/stages.py``). Here
+the wheels' momenta ``h`` (``(N, k)``) are kept as *anchored* linear functions of the step
+count ``m``: ``h(m) = h_a + r ((m - m_a) dt)``, re-anchored only where a body's wheel rates
+``r`` change (a new command, a torque clipped, a wheel reaching its speed limit). The
+stages then hold ``P_L = A h_a``, ``P_LD = A r`` and ``P_LT = t0 + m_a dt``, the same
+numbers whether the steps come from one ``integrate()`` call or from a ``Stepper``'s calls,
+one body or an ensemble: the runs agree bit for bit.
+
+:meth:`WheelState.segment` gives the next piece of steps over which every body's rates
+are constant and no wheel passes its limit: up to the step in which a wheel would pass
+it, then that one step with the rate that brings the wheel exactly onto its limit at the
+step's end, then the wheel held there (rate 0) while the command pushes it outward.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import warnings
+
+import numpy as np
+
+from liebody._kernels import stages as S
+from liebody._stepper import Stepper
+from liebody._validate import as_float_array
+from liebody.wheels import Saturation
+
+_ROTOR = slice(S.P_L1, S.P_L3 + 1)
+_RATE = slice(S.P_LD1, S.P_LD3 + 1)
+
+
+def _refuse_sampled(method) -> None:
+    if method.sampled:
+        raise ValueError(
+            f"method {method.name!r} evaluates the rigid body's exact flow at the output times; "
+            f"a body with reaction wheels is stepped: use splitting2 (its default), "
+            f"splitting4/6/8, no_squish or a baseline (euler, rk4, lie_euler, rkmk4)")
+
+
+def wheel_controls(scene, controls, n_bodies: int | None, name: str = "controls"
+                   ) -> np.ndarray:
+    """The wheels' motor torques ``u``: ``(k,)`` or one row per body ``(N, k)`` (zeros when
+    not given), as an ``(N or 1, k)`` array."""
+    k = scene.n_wheels
+    if controls is None:
+        return np.zeros((1 if n_bodies is None else n_bodies, k))
+    u = np.array(as_float_array(name, controls), dtype=float)
+    if u.ndim == 0 or u.shape[-1] != k or u.ndim > 2:
+        raise ValueError(f"{name}: the motor torques of the {k} wheels, shape ({k},) or one "
+                         f"row per body (N, {k}); got shape {u.shape}")
+    if u.ndim == 2:
+        if n_bodies is None or u.shape[0] != n_bodies:
+            told = "one body" if n_bodies is None else f"{n_bodies} bodies"
+            raise ValueError(f"{name} of shape {u.shape} give one row per body for "
+                             f"{u.shape[0]} bodies, but the run has {told}")
+        return u
+    return np.broadcast_to(u, (1 if n_bodies is None else n_bodies, k)).copy()
+
+
+def rotor(axes: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``A h`` for rows ``h`` ``(N, k)``, summed in wheel order (the same rounding for a body
+    alone and in an ensemble)."""
+    out = h[:, 0, None] * axes[0]
+    for j in range(1, axes.shape[0]):
+        out = out + h[:, j, None] * axes[j]
+    return out
+
+
+class WheelState:
+    """The wheels of ``n`` bodies: anchored linear momenta, rates, limits and records."""
+
+    def __init__(self, scene, n: int, dt: float, t0: float = 0.0):
+        k = scene.n_wheels
+        self.axes = scene.axes
+        self.dt = dt
+        self.t0 = t0  # the clock: step m is at t0 + m dt
+        self.lim = np.ascontiguousarray(np.broadcast_to(scene.momentum_limit, (n, k)),
+                                        dtype=float)
+        self.tmax = (np.full(k, math.inf) if scene.max_torque is None
+                     else np.asarray(scene.max_torque, dtype=float))
+        self.h_a = np.array(np.broadcast_to(scene.momentum, (n, k)), dtype=float)
+        self.m_a = np.zeros(n)
+        self.rate = np.zeros((n, k))
+        self.landing = np.zeros((n, k), dtype=bool)  # reach the limit after step m_a + 1
+        self.land_value = np.zeros((n, k))
+        self.at_speed = np.zeros((n, k), dtype=bool)
+        self.at_torque = np.zeros((n, k), dtype=bool)
+        self.events: list[tuple[int, float, int, str]] = []  # (body, t, wheel, limit)
+        #: (m_a, h_a, rate) of every anchor, per body (the samples' momenta)
+        self.history: list[list] = [[(0.0, self.h_a[i].copy(), self.rate[i].copy())]
+                                    for i in range(n)]
+        self.moved = False  # whether any rate was ever nonzero
+
+    def copy(self) -> WheelState:
+        out = copy.copy(self)
+        for name in ("h_a", "m_a", "rate", "landing", "land_value", "at_speed", "at_torque"):
+            setattr(out, name, getattr(self, name).copy())
+        out.events = list(self.events)
+        out.history = [list(h) for h in self.history]
+        return out
+
+    def now(self, m: float) -> np.ndarray:
+        """The momenta ``(n, k)`` after step count ``m`` (at or after every anchor)."""
+        h = self.h_a + self.rate * ((m - self.m_a)[:, None] * self.dt)
+        land = self.landing & ((m - self.m_a) >= 1.0)[:, None]
+        return np.where(land, self.land_value, h)
+
+    def set(self, h: np.ndarray, m: float) -> None:
+        """Set the momenta ``(n, k)`` at step count ``m`` (re-anchors every body)."""
+        self._anchor(np.ones(self.h_a.shape[0], dtype=bool), h, m, self.rate)
+        self.landing[:] = False
+        self.at_speed[:] = False
+
+    def rebase(self, m: float, t0: float) -> None:
+        """The clock was set: step count ``m`` becomes step 0 at time ``t0``."""
+        h = self.now(m)
+        self.t0 = t0
+        self._anchor(np.ones(self.h_a.shape[0], dtype=bool), h, 0.0, self.rate)
+        self.landing[:] = False
+
+    def _anchor(self, which: np.ndarray, h: np.ndarray, m: float, rate: np.ndarray) -> None:
+        self.h_a[which] = h[which]
+        self.m_a[which] = m
+        self.rate[which] = rate[which]
+        for i in np.flatnonzero(which):
+            self.history[i].append((float(m), self.h_a[i].copy(), self.rate[i].copy()))
+
+    def slots(self, which=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The stages' rotor slots of the bodies ``which`` (all by default):
+        ``P_L = A h_a``, ``P_LD = A r``, ``P_LT = t0 + m_a dt``."""
+        w = slice(None) if which is None else which
+        return (rotor(self.axes, self.h_a[w]), rotor(self.axes, self.rate[w]),
+                self.t0 + self.m_a[w] * self.dt)
+
+    def segment(self, u: np.ndarray, m: float, n_left: int) -> tuple[int, np.ndarray]:
+        """The next piece of at most ``n_left`` steps from step count ``m`` under the
+        commands ``u`` ``(n, k)``: its length and which bodies were re-anchored (their
+        stages' rotor slots must be written). Records the saturations it starts."""
+        dt = self.dt
+        h = self.now(m)
+        u_c = np.clip(u, -self.tmax, self.tmax)
+        clipped = np.abs(u) > self.tmax
+        self._record(clipped & ~self.at_torque, self.t0 + m * dt, "torque")
+        self.at_torque = clipped
+        s = np.sign(u_c)
+        held = (s != 0) & (s * h >= self.lim)  # at the limit, pushed outward
+        self._record(held & ~self.at_speed, self.t0 + m * dt, "speed")
+        self.at_speed = held
+        r = np.where(held, 0.0, u_c)
+        changed = np.any(r != self.rate, axis=1) | np.any(self.landing, axis=1)
+        self.landing[:] = False
+        if changed.any():
+            self._anchor(changed, h, m, r)
+        moving = self.rate != 0.0
+        if not moving.any():
+            return n_left, changed
+        self.moved = True
+        # steps from the anchor until the wheel reaches its limit: the least J with
+        # |h_a + r J dt| >= lim (J = ceil(room / (|r| dt)), checked on the formula)
+        sr = np.sign(self.rate)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            room = self.lim - sr * self.h_a
+            J = np.where(moving, np.ceil(room / (np.abs(self.rate) * dt)), math.inf)
+            J = np.maximum(J, 1.0)
+            for _ in range(2):
+                reach = sr * (self.h_a + self.rate * ((J - 1.0) * dt)) >= self.lim
+                J = np.where(moving & reach & (J > 1.0), J - 1.0, J)
+                short = sr * (self.h_a + self.rate * (J * dt)) < self.lim
+                J = np.where(moving & short & np.isfinite(J), J + 1.0, J)
+        ahead = J - (m - self.m_a)[:, None]  # steps from now; 1: this step reaches it
+        hit = moving & (ahead <= 1.0)
+        if hit.any():  # one step, with the rate that lands those wheels on their limit
+            bodies = np.any(hit, axis=1)
+            rate = self.rate.copy()
+            rate[hit] = (sr * self.lim - h)[hit] / dt
+            self._anchor(bodies, h, m, rate)
+            self.landing[hit] = True
+            self.land_value[hit] = (sr * self.lim)[hit]
+            self._record(hit, self.t0 + (m + 1.0) * dt, "speed")
+            self.at_speed |= hit
+            return 1, changed | bodies
+        first = float(np.min(ahead[moving])) - 1.0
+        return int(min(float(n_left), first)), changed
+
+    def _record(self, mask: np.ndarray, t: float, limit: str) -> None:
+        for b, w in zip(*np.nonzero(mask), strict=True):
+            self.events.append((int(b), float(t), int(w), limit))
+
+    def samples(self, i: int, steps: np.ndarray) -> np.ndarray:
+        """Body ``i``'s momenta at the step counts ``steps`` (after the anchors)."""
+        hist = self.history[i]
+        starts = np.array([a[0] for a in hist])
+        which = np.searchsorted(starts, steps, side="right") - 1
+        out = np.empty((len(steps), self.h_a.shape[1]))
+        for j, (m_a, h_a, r) in enumerate(hist):
+            sel = which == j
+            if sel.any():
+                out[sel] = h_a + r * ((steps[sel] - m_a)[:, None] * self.dt)
+        return out
+
+    def records(self, body: int | None, until: float = math.inf, index: int | None = None
+                ) -> tuple[Saturation, ...]:
+        """The saturations up to time ``until`` as records (of body ``index``, given
+        ``body``'s number in them; every body with ``index=None``)."""
+        return tuple(Saturation(body if index is not None else b, t, w, lim)
+                     for b, t, w, lim in sorted(self.events, key=lambda e: (e[1], e[0], e[2]))
+                     if t <= until and (index is None or b == index))
+
+
+def write_slots(params: np.ndarray, state: WheelState, which=None) -> None:
+    """Write the rotor slots of the bodies ``which`` into every stage of ``params``
+    (``(s, P)`` for one body, ``(n, s, P)`` one row per body)."""
+    L, R, T = state.slots(which)
+    if params.ndim == 2:
+        params[:, _ROTOR] = L[0]
+        params[:, _RATE] = R[0]
+        params[:, S.P_LT] = T[0]
+        return
+    rows = slice(None) if which is None else which
+    params[rows, :, _ROTOR] = L[:, None, :]
+    params[rows, :, _RATE] = R[:, None, :]
+    params[rows, :, S.P_LT] = T[:, None]
+
+
+# ---------------------------------------------------------------------- integrate()
+def integrate_wheels(scene, method, q0, m0, dt, n_steps, save_every, progress, n_bodies,
+                     diagnostics, controls, t0):
+    """:func:`liebody.integrate` of a :class:`~liebody.ReactionWheels` scene (validated
+    by it up to the controls): one body, or each body of an ensemble in turn."""
+    from liebody._integrate import _sample_times
+
+    _refuse_sampled(method)
+    u = wheel_controls(scene, controls, n_bodies)
+    model = scene.torque_model()
+    if n_bodies is None:
+        t = _sample_times(n_steps, save_every, dt)
+        return _WheelRun(scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
+                         diagnostics, u, t0).stepped()
+    return _ensemble(scene, method, q0, m0, dt, n_steps, save_every, progress, n_bodies,
+                     diagnostics, u, t0)
+
+
+def _sample_steps(n_steps: int, save_every: int, n_samples: int) -> np.ndarray:
+    steps = np.arange(n_samples, dtype=float) * save_every
+    steps[-1] = n_steps
+    return steps
+
+
+def _run_class():
+    from liebody._integrate import _Run
+
+    class WheelRun(_Run):
+        """``integrate()``'s one-body run, cut where the wheels' rates change."""
+
+        def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model,
+                     progress, diagnostics, u, t0):
+            super().__init__(scene, method, q0, m0, dt, n_steps, save_every, t, model,
+                             progress, diagnostics, None, t0)
+            self.wu = u
+            self.wheels = WheelState(scene, 1, dt, t0)
+            # the pieces of the whole run, planned at once (a few: where rates change)
+            plan_state = self.wheels.copy()
+            self.pieces = []
+            m = 0
+            while m < n_steps:
+                snap = plan_state.copy()
+                length, changed = plan_state.segment(u, float(m), n_steps - m)
+                self.pieces.append((m, length, bool(changed[0]), snap, plan_state.copy()))
+                m += length
+            self.final_state = plan_state
+            if diagnostics:  # the kernel's energy: the body's part with the rotor A h0
+                h0 = np.atleast_2d(scene.momentum)[:1]
+                rot = rotor(scene.axes, h0)[0]
+                inv = 1.0 / np.asarray(scene.moments, dtype=float)
+                T0 = 0.5 * float(np.sum((m0 - rot) ** 2 * inv))
+                self.dref[10:13] = rot
+                self.dref[6] = math.nan if (plan_state.moved or scene.sources) else T0
+                self.dref[7] = 1.0 / T0 if T0 > 0 else 0.0
+
+        def stepped(self):
+            from liebody._engine import first_slice, interrupt_after_call, one_body_args
+            from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
+
+            plan = self.method.plan(self.scene, self.m0, self.dt)
+            self.info = dict(plan.info)
+            runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
+            params = plan.params[0].copy()
+            merge = plan.merge_ends and not self.diag
+            state = np.concatenate([self.q0, self.m0])
+            ctl = np.array([self.save_every, 0], dtype=np.int64)
+            addr = self.model.address
+            done = saved = 0
+            status = S.STATUS_OK
+            pieces = iter(self.pieces)
+            end = 0  # the end of the current piece
+            try:
+                for n in self._slices(self.n_steps, "step", first_slice(self.model)):
+                    stop = done + n
+                    while done < stop and status == S.STATUS_OK:
+                        if done == end:
+                            start, length, _, _, after = next(pieces)
+                            write_slots(params, after)
+                            end = start + length
+                        k = min(stop, end) - done
+                        with interrupt_after_call():
+                            d, s, status = runner(*one_body_args(
+                                plan, params, merge, self.dt, self.t0, float(done), k,
+                                self.save_every, done + k == self.n_steps, state, ctl,
+                                self.q_out[1 + saved:], self.m_out[1 + saved:], addr,
+                                self.dref, self.dmax))
+                            done += d
+                            saved += s
+                    if status != S.STATUS_OK:
+                        break
+            except KeyboardInterrupt:
+                self._interrupted(1 + saved, done)
+            if status == S.STATUS_OK:
+                from liebody._integrate import MAX_MOMENTUM
+                from liebody.trajectory import Trajectory
+
+                if not np.max(np.abs(self.m_out[-1])) <= MAX_MOMENTUM:
+                    return self._overflowed()
+                self.q_out.flags.writeable = self.m_out.flags.writeable = False
+                traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene,
+                                  self.method, self.dt, info=self.info,
+                                  diagnostics=self._diagnostics(),
+                                  wheels=self._wheel_samples(len(self.t)),
+                                  saturations=self.final_state.records(None, index=0))
+                return _check(traj)
+            return self._failed(status, done, saved, state)
+
+        def _wheel_samples(self, n_keep: int) -> np.ndarray:
+            steps = _sample_steps(self.n_steps, self.save_every, len(self.t))[:n_keep]
+            out = self.final_state.samples(0, steps)
+            out.flags.writeable = False
+            return out
+
+        def _partial(self, n_keep, status, failed_at=None):
+            from liebody.trajectory import Trajectory
+
+            until = self.t0 + float(self.t[n_keep - 1]) if failed_at is None else failed_at
+            return Trajectory(self._times()[:n_keep].copy(), self.q_out[:n_keep].copy(),
+                              self.m_out[:n_keep].copy(), self.scene, self.method, self.dt,
+                              failed_at=failed_at, info=self.info, status=status,
+                              wheels=self._wheel_samples(n_keep),
+                              saturations=self.final_state.records(None, until, index=0))
+
+    return WheelRun
+
+
+class _LazyRun:
+    cls = None
+
+    def __call__(self, *args, **kwargs):
+        if _LazyRun.cls is None:
+            _LazyRun.cls = _run_class()
+        return _LazyRun.cls(*args, **kwargs)
+
+
+_WheelRun = _LazyRun()
+
+#: tolerances of the end-of-run check of a wheel run (as for integrate())
+_QNORM_TOL = 1e-6
+_ENERGY_TOL = 1e-2
+
+
+def _check(traj):
+    """``integrate()``'s end-of-run check, for wheels: ``|q|``, and the energy of body and
+    wheels for a symplectic method when nothing drives them (no command, no torque)."""
+    from liebody.errors import InvariantWarning
+
+    q1 = traj.q[-1]
+    problems = []
+    qn = float(np.linalg.norm(q1))
+    if not abs(qn - 1.0) <= _QNORM_TOL:
+        problems.append(f"|q| = {qn:.6g} at the end, off 1 by more than {_QNORM_TOL:g}")
+    still = not np.any(np.diff(traj.wheels, axis=0)) if len(traj.t) > 1 else True
+    if traj.method.symplectic and traj.scene.sources is None and still:
+        T = traj.kinetic_energy
+        if not abs(T[-1] - T[0]) <= _ENERGY_TOL * T[0]:
+            problems.append(f"the energy went from {T[0]:.6g} to {T[-1]:.6g}, more than "
+                            f"{_ENERGY_TOL:.0%}")
+    if problems:
+        warnings.warn(f"{traj.method.name}: " + "; ".join(problems) + " (the step may be too "
+                      "large for this scene)", InvariantWarning, stacklevel=4)
+    return traj
+
+
+def _ensemble(scene, method, q0, m0, dt, n_steps, save_every, progress, n, diagnostics, u, t0):
+    """An ensemble of wheel bodies: each body's one-body run in turn (so each body's numbers
+    are its one-body call's), stacked; a body that fails stops there (NaN after) and one
+    warning sums up."""
+    from liebody._engine import failure_message
+    from liebody._integrate import _sample_times
+    from liebody.errors import IntegrationError
+    from liebody.trajectory import Trajectory
+
+    t = _sample_times(n_steps, save_every, dt, n)
+    q0 = np.broadcast_to(q0, (n, 4))
+    m0 = np.broadcast_to(m0, (n, 3))
+    batched = bool(scene.batch_shape)
+    k = scene.n_wheels
+    q = np.full((n, len(t), 4), np.nan)
+    L = np.full((n, len(t), 3), np.nan)
+    W = np.full((n, len(t), k), np.nan)
+    failed_at = np.full(n, np.nan)
+    status = np.array(["complete"] * n, dtype=object)
+    sat: list = []
+    diag: dict = {}
+    info: dict = {}
+    for i in range(n):
+        one = scene.take(i) if batched else scene
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                tr = _WheelRun(one, method, np.ascontiguousarray(q0[i]),
+                               np.ascontiguousarray(m0[i]), dt, n_steps, save_every, t,
+                               one.torque_model(), progress, diagnostics, u[i:i + 1],
+                               t0).stepped()
+            except IntegrationError as exc:  # (IntegrationInterrupted propagates)
+                tr = exc.trajectory
+        for w in caught:
+            if not issubclass(w.category, RuntimeWarning) or tr.failed_at is None:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        info = tr.info
+        j = len(tr.t)
+        q[i, :j], L[i, :j], W[i, :j] = tr.q, tr.L, tr.wheels
+        if tr.failed_at is not None:
+            failed_at[i] = tr.failed_at
+            status[i] = "failed: non-finite state"
+        sat.extend(s._replace(body=i) for s in tr.saturations)
+        if tr.diagnostics:
+            for key, v in tr.diagnostics.items():
+                diag.setdefault(key, np.full(n, np.nan))[i] = v
+    message = failure_message(method.name, status, failed_at)
+    if message:
+        warnings.warn(message, RuntimeWarning, stacklevel=4)
+    for a in (q, L, W):
+        a.flags.writeable = False
+    sat.sort(key=lambda s: (s.t, s.body, s.wheel))
+    return Trajectory((t if t0 == 0.0 else t0 + t), q, L, scene, method, dt,
+                      failed_at=failed_at, info=dict(info), status=status.astype(str),
+                      diagnostics=diag or None, wheels=W, saturations=tuple(sat))
+
+
+# ---------------------------------------------------------------------- the Stepper
+class WheelStepper(Stepper):
+    """:class:`liebody.Stepper` of a :class:`~liebody.ReactionWheels` scene (made by
+    ``Stepper(scene, ...)``): :attr:`u` are the wheels' motor torques, held over the
+    following steps; :attr:`wheel_momentum` reads and sets the wheels' momenta;
+    :attr:`saturations` lists the saturations so far."""
+
+    def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
+                 method=None, controls=None, threads: int | None = None,
+                 simd: bool | None = None) -> None:
+        from liebody import _methods
+
+        m = _methods.get(scene.default_method if method is None else method)
+        _refuse_sampled(m)
+        self._wheels = None
+        super().__init__(scene, q0=q0, L0=L0, omega0=omega0, dt=dt, method=method,
+                         controls=None, threads=threads, simd=simd)
+        self._wu = wheel_controls(scene, controls, self._n, name="controls")
+        self._wheels = WheelState(scene, self._n or 1, self._dt, self._t0)
+        self._write()
+
+    # the stages' rotor slots
+    def _write(self, which=None) -> None:
+        if self._n is None:
+            write_slots(self._head[4], self._wheels)
+            return
+        for g in self._groups:
+            idx = g["idx"]
+            sel = np.ones(len(idx), dtype=bool) if which is None else which[idx]
+            if not sel.any():
+                continue
+            L, R, T = self._wheels.slots(idx[sel])
+            p = g["params"]
+            p[sel, :, _ROTOR] = L[:, None, :]
+            p[sel, :, _RATE] = R[:, None, :]
+            p[sel, :, S.P_LT] = T[:, None]
+
+    def _plan(self, momentum=None) -> None:
+        super()._plan(momentum)
+        if getattr(self, "_wheels", None) is not None:
+            self._write()
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps (``n >= 1``) with the motor torques :attr:`u` held, cut where
+        a wheel reaches a limit (:attr:`saturations`); errors as :meth:`Stepper.step`."""
+        from liebody._validate import as_positive_int
+        from liebody.errors import IntegrationInterrupted
+
+        with self._lock:
+            n = as_positive_int("n", n)
+            done = 0
+            while done < n:
+                before = self._wheels.copy()
+                length, changed = self._wheels.segment(self._wu, self._k, n - done)
+                if changed.any():
+                    self._write(changed)
+                try:
+                    Stepper.step(self, length)
+                except IntegrationInterrupted as exc:
+                    if exc.step == 0:
+                        self._wheels = before
+                        self._write()
+                    raise
+                except BaseException:
+                    self._wheels = before
+                    self._write()
+                    raise
+                done += length
+
+    @property
+    def u(self) -> np.ndarray:
+        """The wheels' motor torques ``(k,)`` (``(N, k)`` for an ensemble), held over the
+        following steps (clipped to ``max_torque`` where the scene has one)."""
+        with self._lock:
+            return (self._wu[0] if self._n is None else self._wu).copy()
+
+    @u.setter
+    def u(self, value) -> None:
+        if value is None:
+            raise TypeError("u must be the wheels' motor torques (an array of numbers), "
+                            "got None")
+        u = wheel_controls(self._scene, value, self._n, name="u")
+        with self._lock:
+            self._wu = u
+
+    @property
+    def wheel_momentum(self) -> np.ndarray:
+        """The wheels' absolute axial angular momenta ``h`` now, ``(k,)`` or ``(N, k)``
+        (a copy; settable, within the speed limits)."""
+        with self._lock:
+            h = self._wheels.now(self._k)
+            return h[0].copy() if self._n is None else h
+
+    @wheel_momentum.setter
+    def wheel_momentum(self, value) -> None:
+        k = self._scene.n_wheels
+        h = np.array(as_float_array("wheel_momentum", value), dtype=float)
+        n = self._n or 1
+        if h.shape not in ((k,), (n, k)) or (self._n is None and h.ndim != 1):
+            raise ValueError(f"wheel_momentum must be shape ({k},)"
+                             + ("" if self._n is None else f" or ({n}, {k})")
+                             + f", got {h.shape}")
+        h = np.array(np.broadcast_to(h, (n, k)))
+        if np.any(np.abs(h) > self._wheels.lim):
+            raise ValueError("wheel_momentum must be within the speed limit, |h_k| <= J_k "
+                             "max_speed")
+        with self._lock:
+            self._wheels.set(h, self._k)
+            self._write()
+
+    @property
+    def rotor_momentum(self) -> np.ndarray:
+        """``l = A h``, the wheels' momentum in the body frame now (``(3,)`` or ``(N, 3)``)."""
+        h = np.atleast_2d(self.wheel_momentum)
+        out = rotor(self._scene.axes, h)
+        return out[0] if self._n is None else out
+
+    @property
+    def saturations(self) -> tuple[Saturation, ...]:
+        """The saturations so far (:class:`liebody.wheels.Saturation` records, in time
+        order; ``body`` ``None`` for one body)."""
+        with self._lock:
+            if self._n is None:
+                return self._wheels.records(None, index=0)
+            return self._wheels.records(None)
+
+    @property
+    def t(self) -> float:
+        return Stepper.t.fget(self)
+
+    @t.setter
+    def t(self, value) -> None:
+        with self._lock:
+            m = self._k
+            Stepper.t.fset(self, value)
+            self._wheels.rebase(m, self._t0)
+            self._write()
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        with self._lock:
+            state["wheels"] = self._wheels.copy()
+            state["wu"] = self._wu.copy()
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self._wheels = state["wheels"].copy()
+        self._wu = state["wu"].copy()
+        super().__setstate__(state)
