@@ -389,7 +389,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         from liebody._wheels import integrate_wheels
 
         return integrate_wheels(scene, method, q_init, m_init, dt, n_steps, save_every,
-                                progress, n_bodies, diagnostics, controls, t0)
+                                progress, n_bodies, diagnostics, controls, t0,
+                                omega_given=omega0 is not None)
     model = scene.torque_model()
     _check_potential(scene, model, q_init, n_bodies, t0)
     u = as_controls(scene, controls, n_bodies)

@@ -142,6 +142,14 @@ class Stepper:
     would have left it (a step whose last stage had been merged with the next one's
     first is completed first).
 
+    *Reaction wheels.* For a :class:`~liebody.ReactionWheels` scene, ``controls`` and
+    :attr:`u` are the wheels' motor torques (``(n,)`` or ``(N, n)``), clipped to the
+    scene's ``max_torque``; ``stepper.wheel_momentum`` reads and sets the wheels'
+    momenta, ``stepper.saturations`` lists the saturations so far (records:
+    :class:`liebody.wheels.Saturation`), ``omega`` is the body's ``I^-1 (L - A h)``
+    (``omega0`` too: ``L = I omega0 + A h0``), and a call is cut where a wheel reaches a
+    limit, by the rule of :func:`liebody.integrate`, so the two agree bit for bit.
+
     *Copies, pickling and threads.* ``copy.copy``, ``copy.deepcopy`` and pickling give
     an independent stepper with its own state, time, controls and failure marks (the
     scene, immutable, is shared), which continues bit for bit as the original would.

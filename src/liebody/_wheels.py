@@ -228,14 +228,25 @@ def write_slots(params: np.ndarray, state: WheelState, which=None) -> None:
 
 
 # ---------------------------------------------------------------------- integrate()
+def with_wheels(scene, m: np.ndarray) -> np.ndarray:
+    """The total momentum ``I omega + A h0`` from the body's own ``I omega`` (``omega0``
+    gives the body's angular velocity; the wheels carry their initial momenta)."""
+    h0 = np.atleast_2d(scene.momentum)
+    out = m + rotor(scene.axes, h0)
+    return out[0] if m.ndim == 1 and out.shape[0] == 1 else out
+
+
 def integrate_wheels(scene, method, q0, m0, dt, n_steps, save_every, progress, n_bodies,
-                     diagnostics, controls, t0):
+                     diagnostics, controls, t0, omega_given=False):
     """:func:`liebody.integrate` of a :class:`~liebody.ReactionWheels` scene (validated
-    by it up to the controls): one body, or each body of an ensemble in turn."""
+    by it up to the controls): one body, or each body of an ensemble in turn. With
+    ``omega0`` (``omega_given``) the total momentum is ``I omega0 + A h0``."""
     from liebody._integrate import _sample_times
 
     _refuse_sampled(method)
     u = wheel_controls(scene, controls, n_bodies)
+    if omega_given:
+        m0 = with_wheels(scene, m0)
     model = scene.torque_model()
     if n_bodies is None:
         t = _sample_times(n_steps, save_every, dt)
@@ -463,6 +474,10 @@ class WheelStepper(Stepper):
         m = _methods.get(scene.default_method if method is None else method)
         _refuse_sampled(m)
         self._wheels = None
+        if omega0 is not None:  # the body's angular velocity: L = I omega0 + A h0
+            from liebody._integrate import _initial_momentum
+
+            L0, omega0 = with_wheels(scene, _initial_momentum(scene, None, omega0)), None
         super().__init__(scene, q0=q0, L0=L0, omega0=omega0, dt=dt, method=method,
                          controls=None, threads=threads, simd=simd)
         self._wu = wheel_controls(scene, controls, self._n, name="controls")
@@ -557,6 +572,20 @@ class WheelStepper(Stepper):
         with self._lock:
             self._wheels.set(h, self._k)
             self._write()
+
+    @property
+    def omega(self) -> np.ndarray:
+        """The body's angular velocity ``I^-1 (L - A h)`` (settable: ``L = I omega + A h``
+        with the wheels' momenta now, which re-plans the method at the next step)."""
+        return (self.L - self.rotor_momentum) / np.asarray(self._scene.moments)
+
+    @omega.setter
+    def omega(self, value) -> None:
+        from liebody._integrate import _initial_momentum
+
+        m = _initial_momentum(self._scene, None, value, names=("L", "omega"))
+        with self._lock:
+            self.L = m + self.rotor_momentum
 
     @property
     def rotor_momentum(self) -> np.ndarray:

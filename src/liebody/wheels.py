@@ -184,6 +184,10 @@ class ReactionWheels(Scene):
         ``"auto"`` or ``"axes"``: the axis splitting (the exact and symmetric-body flows are
         the rigid body's, and are refused).
 
+    The state is the orientation, the total angular momentum ``L`` of body and wheels
+    (body frame: ``L0`` in :func:`liebody.integrate`) and the wheels' momenta; ``omega0``
+    gives the body's angular velocity instead, ``L = I omega0 + A h0``.
+
     The motor torques ``u`` (``(n,)``, or ``(N, n)``) are the control inputs: held over a
     whole run by ``liebody.integrate(scene, ..., controls=u)`` and set between steps by a
     :class:`liebody.Stepper` (``stepper.u = ...``), which also reads and sets the wheel
