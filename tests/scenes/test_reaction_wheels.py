@@ -68,7 +68,8 @@ def test_total_angular_momentum_is_kept_to_round_off():
 
 
 @pytest.mark.parametrize(("method", "order"), [("splitting2", 2), ("splitting4", 4),
-                                               ("rk4", 4)])
+                                               ("no_squish", 2), ("rk4", 4), ("rkmk4", 4),
+                                               ("lie_euler", 1)])
 def test_orders_against_dop853(method, order):
     scene = _pyramid()
     L0 = I * W0 + PYRAMID.T @ H0 + np.array([0.4, 0.1, -0.2])
@@ -108,6 +109,20 @@ def test_energy_with_the_rotors_is_conserved_without_torques():
     # the motors do work: driven, the energy changes by sum u h (the body's part aside)
     drv = liebody.integrate(scene, q0=Q0, L0=L0, dt=0.1, steps=200, controls=U)
     assert abs(drv.energy[-1] - drv.energy[0]) > 1e-3
+
+
+def test_running_diagnostics_follow_the_energy_with_the_rotors():
+    scene = _pyramid()
+    L0 = I * W0 + PYRAMID.T @ H0
+    free = liebody.integrate(scene, q0=Q0, L0=L0, dt=0.1, steps=2000, save_every=1,
+                             diagnostics=True)
+    T = free.kinetic_energy - 0.5 * np.sum(H0**2 / J)  # the body's part
+    assert free.diagnostics["max_energy_error"] == pytest.approx(
+        np.abs(T - T[0]).max() / T[0], rel=1e-6)
+    driven = liebody.integrate(scene, q0=Q0, L0=L0, dt=0.1, steps=20, diagnostics=True,
+                               controls=U)
+    assert math.isnan(driven.diagnostics["max_energy_error"])  # the motors do work
+    assert driven.diagnostics["max_qnorm_error"] < 1e-14
 
 
 def test_saturation_is_recorded_and_enforced():
