@@ -86,6 +86,11 @@ def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
     if (L0 is None) == (omega0 is None):
         raise ValueError(f"give exactly one of {l_name} (body angular momentum) and "
                          f"{w_name} (body angular velocity)")
+    if L0 is not None and L0.__class__ in (list, tuple) and len(L0) == 3 and all(
+            v.__class__ is float or v.__class__ is int for v in L0):  # the common case
+        m1, m2, m3 = (float(v) for v in L0)
+        if max(abs(m1), abs(m2), abs(m3)) <= MAX_MOMENTUM:  # (finite; else the checks below)
+            return np.array((m1, m2, m3))
     if L0 is not None:
         name, m = l_name, np.array(as_float_array(l_name, L0, last_dim=3))
     else:
@@ -589,6 +594,20 @@ def _first_row(u):
     return None if u is None else u.reshape(-1, u.shape[-1])[0]
 
 
+_DRIVERS: tuple | None = None
+
+
+def _drivers() -> tuple:
+    """``(RUNNERS, DIAG_RUNNERS)`` of the one-body drivers, imported on first use (numba
+    loads with them) and then kept (an import statement per call costs a microsecond)."""
+    global _DRIVERS
+    if _DRIVERS is None:
+        from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
+
+        _DRIVERS = (RUNNERS, DIAG_RUNNERS)
+    return _DRIVERS
+
+
 class _Run:
     """One call of :func:`integrate` after validation: runs it and reports the outcome."""
 
@@ -649,11 +668,9 @@ class _Run:
     # -------------------------------------------------------------- stepping
     def stepped(self) -> Trajectory:
         """Run the method's stage table through the driver of its family, in slices."""
-        from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
-
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
-        runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
+        runner = _drivers()[self.diag][plan.family]
         params = plan.params[0]
         if self.u is not None:
             params = params.copy()
@@ -690,8 +707,8 @@ class _Run:
             if not max(abs(L1), abs(L2), abs(L3)) <= MAX_MOMENTUM:
                 return self._overflowed()
             self.q_out.flags.writeable = self.m_out.flags.writeable = False  # ours: no view
-            traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene, self.method,
-                              self.dt, info=self.info, diagnostics=self._diagnostics())
+            traj = Trajectory._complete(self._times(), self.q_out, self.m_out, self.scene,
+                                        self.method, self.dt, self.info, self._diagnostics())
             return self._finish(traj)
         return self._failed(status, done, saved, state)
 

@@ -125,6 +125,11 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
     return arr
 
 
+#: plain Python containers and numbers the scalar fast paths take as they are
+_SEQUENCES = (list, tuple)
+_REALS = (float, int)
+
+
 def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray:
     """Convert to a float64 ``(..., 4)`` array of unit quaternions.
 
@@ -132,6 +137,12 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
     ``ValueError`` that says how to normalise. Accepted quaternions are
     returned renormalised to round-off.
     """
+    if value.__class__ in _SEQUENCES and len(value) == 4 and all(
+            v.__class__ in _REALS for v in value):  # (the fixed cost of every call)
+        w, x, y, z = (float(v) for v in value)
+        n = math.sqrt(w * w + x * x + y * y + z * z)
+        if abs(n - 1.0) <= tol:  # (else the general path below says why)
+            return np.array((w / n, x / n, y / n, z / n))
     q = as_float_array(name, value, last_dim=4)
     if q.ndim == 1:  # one quaternion: scalar arithmetic (the fixed cost of every call)
         w, x, y, z = q.tolist()

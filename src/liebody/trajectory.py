@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from functools import cached_property
 from typing import NamedTuple
 
@@ -96,6 +96,31 @@ class Trajectory:
             for value in self.diagnostics.values():
                 if isinstance(value, np.ndarray):
                     value.flags.writeable = False
+
+    @classmethod
+    def _complete(cls, t: np.ndarray, q: np.ndarray, L: np.ndarray, scene, method, dt: float,
+                  info: dict, diagnostics: dict | None) -> Trajectory:
+        """A complete run's trajectory, as ``Trajectory(t, q, L, scene, method, dt,
+        info=info, diagnostics=diagnostics)`` builds it, without the dataclass machinery
+        (the one-body run's fixed cost): ``q`` and ``L`` must be read-only already."""
+        if q.flags.writeable or L.flags.writeable:
+            return cls(t, q, L, scene, method, dt, info=info, diagnostics=diagnostics)
+        if t.flags.writeable:
+            t = t.view()
+            t.flags.writeable = False
+        obj = object.__new__(cls)
+        defaults = cls.__dict__.get("_DEFAULTS")
+        if defaults is None:  # every field's default, once
+            defaults = {f.name: f.default for f in fields(cls) if f.default is not MISSING}
+            cls._DEFAULTS = defaults
+        obj.__dict__.update(defaults)
+        obj.__dict__.update(t=t, q=q, L=L, scene=scene, method=method, dt=dt, info=info,
+                            diagnostics=diagnostics)
+        if diagnostics:
+            for value in diagnostics.values():
+                if isinstance(value, np.ndarray):
+                    value.flags.writeable = False
+        return obj
 
     def __len__(self) -> int:
         return int(self.t.shape[0])

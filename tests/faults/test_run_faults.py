@@ -10,12 +10,8 @@ from __future__ import annotations
 import json
 import math
 import re
-import signal
-import subprocess
-import sys
 import textwrap
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +22,7 @@ from scipy.integrate import solve_ivp
 import liebody
 from liebody import _integrate
 from liebody import quaternion as Q
+from support import interrupt_child
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -67,24 +64,7 @@ _INTERRUPTED_CHILD = textwrap.dedent("""
 def test_ctrl_c_stops_a_long_run_and_keeps_its_samples(kw):
     """SIGINT stops the run within about a second, whatever save_every (before: the run
     went on until the kernel returned, 42 s to forever), and the samples are kept."""
-    proc = subprocess.Popen([sys.executable, "-c", _INTERRUPTED_CHILD, json.dumps(kw)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT)
-    try:
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(1.5)
-        sent = time.perf_counter()
-        proc.send_signal(signal.SIGINT)
-        # bounded wait: a child that ignored the signal fails the test, never hangs it
-        stdout, stderr = proc.communicate(timeout=60)
-        latency = time.perf_counter() - sent
-    except subprocess.TimeoutExpired:
-        pytest.fail("the run did not stop within 60 s of SIGINT")
-    finally:
-        proc.kill()
-    line = stdout.strip()
-    assert line, stderr
-    out = json.loads(line)
+    (out,), latency = interrupt_child(_INTERRUPTED_CHILD, [json.dumps(kw)], 1.5)
     assert out["keyboard"] and out["status"] == "interrupted" and out["ok"]
     assert out["n"] >= 1 and out["step"] > 0
     # the whole run takes minutes; stopping well inside that is the property tested

@@ -61,6 +61,25 @@ def test_default_method_is_exact_for_free_body(hlw):
     assert np.abs(tr.L_space - tr.L_space[0]).max() < 1e-13
 
 
+def test_a_one_body_runs_trajectory_is_the_dataclasss_own(hlw):
+    """The one-body run builds its trajectory without the dataclass constructor (its fixed
+    cost): the same fields and values as the constructor gives, read-only, and a new
+    field of Trajectory would fail this test until the fast path sets it."""
+    scene, L0 = hlw
+    tr = liebody.integrate(scene, L0=L0, dt=0.1, steps=3, method="splitting2",
+                           diagnostics=True)
+    ref = liebody.Trajectory(tr.t.copy(), tr.q, tr.L, tr.scene, tr.method, tr.dt,
+                             info=tr.info, diagnostics=tr.diagnostics)
+    assert vars(tr).keys() == vars(ref).keys()
+    for k, v in vars(ref).items():
+        got = getattr(tr, k)
+        assert np.array_equal(got, v) if isinstance(v, np.ndarray) else got == v, k
+    for a in (tr.t, tr.q, tr.L):
+        assert not a.flags.writeable
+    with pytest.raises(AttributeError):
+        tr.dt = 1.0
+
+
 def test_trajectory_derived_quantities(hlw):
     """Derived quantities against independent routes: rotation matrices and scipy."""
     from scipy.spatial.transform import Rotation

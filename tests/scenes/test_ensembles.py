@@ -8,14 +8,8 @@ running diagnostics equal the same measures taken over every saved step.
 
 from __future__ import annotations
 
-import json
-import signal
-import subprocess
-import sys
 import textwrap
-import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +17,7 @@ from numba import njit
 
 import liebody
 from liebody import quaternion as Q
+from support import interrupt_child
 
 N = 40
 RNG = np.random.default_rng(12)
@@ -250,21 +245,7 @@ _CHILD = textwrap.dedent("""
 
 
 def test_ctrl_c_keeps_an_ensembles_samples():
-    proc = subprocess.Popen([sys.executable, "-c", _CHILD], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True,
-                            cwd=Path(__file__).resolve().parents[2])
-    try:
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(2.0)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60)  # bounded: never hangs the suite
-    except subprocess.TimeoutExpired:
-        pytest.fail("the ensemble run did not stop within 60 s of SIGINT")
-    finally:
-        proc.kill()
-    line = stdout.strip()
-    assert line, stderr
-    out = json.loads(line)
+    (out,), _ = interrupt_child(_CHILD, [], 2.0)
     assert out["shape"][0] == 200 and out["shape"][1] >= 2 and out["finite"]
     assert out["status"] == ["interrupted"]
 

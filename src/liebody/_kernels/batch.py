@@ -776,28 +776,19 @@ def _diagnose_block(buf, nb, mc, t):
 
 # ------------------------------------------------------------------ one step of a block
 @jit(inline="always")
-def _kick(buf, p, mc, j, nb, t, tau):
-    """A kick: uniform gravity vectorised, any other model lane by lane."""
-    if mc[0] == TORQUE_GRAVITY:
-        _kick_block(buf, p[0], p[1], p[2], nb, tau)
-    else:
-        _model_kick_block(buf, mc, j, nb, t, tau)
-
-
-@jit(inline="always")
-def _apply(family, kind, axis, fast, buf, p, nb, tau, mc, j, t):
-    """Stage ``j`` of kind ``kind`` for time ``tau`` on a block (``p``: its parameter rows)
-    at time ``t``; ``fast``: the stage's flags (``FAST``: no range reduction needed;
-    ``PROJECT``: a large recurring rotation, after which ``q`` is put back on the unit
-    sphere)."""
+def _apply(family, kind, axis, fast, buf, p, nb, tau):
+    """A stage of kind ``kind`` for time ``tau`` on a block (``p``: its parameter rows),
+    but for the kicks of models other than uniform gravity (:func:`_step`); ``fast``: the
+    stage's flags (``FAST``: no range reduction needed; ``PROJECT``: a large recurring
+    rotation, after which ``q`` is put back on the unit sphere)."""
     if family == F_DMV or family == F_DMV_FREE:
         if kind == DMV:
             _dmv_block(buf, p, nb, tau)
         else:
-            _kick(buf, p, mc, j, nb, t, tau)
+            _kick_block(buf, p[0], p[1], p[2], nb, tau)
         return
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
-        _kick(buf, p, mc, j, nb, t, tau)
+        _kick_block(buf, p[0], p[1], p[2], nb, tau)
         return
     rate = p[0]
     if family == F_AXES or kind == AXIS:
@@ -836,30 +827,47 @@ def _apply(family, kind, axis, fast, buf, p, nb, tau, mc, j, t):
         _project_block(buf, nb, kind == SPHERE, axis, rate, tau)
 
 
-@jit(inline="always")
-def _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h, buf, nb, pending,
-          save_now, mc, clock, t, t_end):
-    """One step of the block (the scalar loop's stage sequence, its clock included) from
-    time ``t`` to ``t_end``; returns ``pending``."""
+@jit
+def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0, step0,
+           n_steps, final, buf, nb, pending, until_save, s0, s1, mcode, mc):
+    """Steps ``s0 .. s1 - 1`` of the run on the block (the scalar loop's stage sequence, its
+    clock and saving countdown included); returns ``(pending, until_save)``.
+
+    A called function, not an inlined one: the model context ``mc`` (a tuple holding
+    arrays) is a parameter here, so the step loop touches no reference count (an inlined
+    function binds its arguments afresh at every call, an atomic increment and decrement
+    per array: 30 % of a free body's step); the kicks of models other than uniform gravity
+    are regular calls that borrow it."""
     ns = kinds.shape[0]
     last = ns - 1
-    j0 = 0
-    if pending:
-        j0 = 1
-        t += clock[0] * h
-    for j in range(j0, last):
-        _apply(family, kinds[j], axes[j], fast[j], buf, par[j], nb, coefs[j] * h, mc, j, t)
-        t += clock[j] * h
-    if ns > 1 and merge_ends and not save_now:
-        tau = (coefs[last] + coefs[0]) * h
-        pending = True
-    else:
-        tau = coefs[last] * h
-        pending = False
-    _apply(family, kinds[last], axes[last], fast[last], buf, par[last], nb, tau, mc, last, t)
-    if diag:
-        _diagnose_block(buf, nb, mc, t_end)
-    return pending
+    models = mcode != TORQUE_GRAVITY
+    for s in range(s0, s1):
+        until_save -= 1
+        save_now = until_save == 0 or (final and s == n_steps - 1)
+        t = t0 + (step0 + s) * h
+        j0 = 0
+        if pending:
+            j0 = 1
+            t += clock[0] * h
+        for j in range(j0, last):
+            if models and kinds[j] == KICK:
+                _model_kick_block(buf, mc, j, nb, t, coefs[j] * h)
+            else:
+                _apply(family, kinds[j], axes[j], fast[j], buf, par[j], nb, coefs[j] * h)
+            t += clock[j] * h
+        if ns > 1 and merge_ends and not save_now:
+            tau = (coefs[last] + coefs[0]) * h
+            pending = True
+        else:
+            tau = coefs[last] * h
+            pending = False
+        if models and kinds[last] == KICK:
+            _model_kick_block(buf, mc, last, nb, t, tau)
+        else:
+            _apply(family, kinds[last], axes[last], fast[last], buf, par[last], nb, tau)
+        if diag:
+            _diagnose_block(buf, nb, mc, t0 + (step0 + s + 1) * h)
+    return pending, until_save
 
 
 @jit
@@ -1001,12 +1009,9 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
         if diag:
             _copy_rows(buf, R_D, R_DCK, 3, nb)
         u0, p0 = until_save, pending
-        for s in range(step, step + t):
-            until_save -= 1
-            save_now = until_save == 0 or (final and s == n_steps - 1)
-            ts = t0 + (step0 + s) * h
-            pending = _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h, buf,
-                            nb, pending, save_now, mc, clock, ts, t0 + (step0 + s + 1) * h)
+        pending, until_save = _steps(family, diag, kinds, axes, coefs, clock, par, fast,
+                                     merge_ends, h, t0, step0, n_steps, final, buf, nb,
+                                     pending, until_save, step, step + t, mcode, mc)
         suspect = False
         for b in range(nb):
             if alive[b]:
@@ -1026,12 +1031,10 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
                 _copy_rows(buf, R_W, R_SK, 7, nb)
                 if diag:
                     _copy_rows(buf, R_D, R_DSK, 3, nb)
-                until_save -= 1
-                save_now = until_save == 0 or (final and s == n_steps - 1)
-                ts = t0 + (step0 + s) * h
-                pending = _step(family, diag, kinds, axes, coefs, par, fast, merge_ends, h,
-                                buf, nb, pending, save_now, mc, clock, ts,
-                                t0 + (step0 + s + 1) * h)
+                pending, until_save = _steps(family, diag, kinds, axes, coefs, clock, par,
+                                             fast, merge_ends, h, t0, step0, n_steps, final,
+                                             buf, nb, pending, until_save, s, s + 1, mcode,
+                                             mc)
                 for b in range(nb):
                     if not alive[b]:
                         continue
