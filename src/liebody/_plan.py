@@ -68,6 +68,10 @@ class Bodies:
     #: the stages' rotor slots (``l(t) = P_L + P_LD (t - P_LT)``), so every body gets the
     #: gyrostat's stages whatever its initial rotor momentum
     moving_rotor: bool = False
+    #: what ``free_flow="auto"`` means for the scene's asymmetric rigid bodies (its
+    #: ``auto_free_flow``): ``"axes"``, the axis splitting (or SR2 in the compositions),
+    #: or ``"exact"``, the elliptic exact flow (:attr:`drift_flow`)
+    auto_flow: str = "axes"
     #: set once a recipe has read the initial momenta (shared with the bodies taken)
     orbit_read: list = field(default_factory=lambda: [False], repr=False, compare=False)
 
@@ -100,7 +104,8 @@ class Bodies:
         return cls(rows(moments, 3), rows(m0, 3), mp,
                    np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)), rows(rotor, 3),
                    scene.capabilities, scene.free_flow, model.code,
-                   bool(getattr(scene, "moving_rotor", False)))
+                   bool(getattr(scene, "moving_rotor", False)),
+                   auto_flow=getattr(scene, "auto_free_flow", "axes"))
 
     def __len__(self) -> int:
         return self.moments.shape[0]
@@ -123,6 +128,15 @@ class Bodies:
         """Whether any body is a gyrostat (carries rotor momentum, or wheels whose
         momentum changes)."""
         return self.moving_rotor or bool(np.any(self.rotor != 0.0))
+
+    @property
+    def drift_flow(self) -> str:
+        """The scene's ``free_flow`` with ``"auto"`` resolved where the scene says so:
+        ``"exact"`` when its ``auto_free_flow`` is the exact flow and the bodies are
+        rigid (a gyrostat keeps the axis splitting), else ``free_flow`` as given."""
+        if self.free_flow == "auto" and self.auto_flow == "exact" and not self.has_rotor:
+            return "exact"
+        return self.free_flow
 
     def require_rigid(self, what: str) -> None:
         """Refuse a flow that is the rigid body's for a gyrostat, naming it and the way."""
@@ -446,9 +460,9 @@ _DRIFT_SYMMETRIC, _DRIFT_EXACT, _DRIFT_AXES = 0, 1, 2
 def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
     """Per body, the drift a splitting uses between kicks: see :func:`drift_stages`."""
     sym = b.symmetry
-    use_sym = (sym != ASYMMETRIC) & ((b.free_flow != "axes") | (sym == SPHERICAL))
-    choice = np.where(use_sym, _DRIFT_SYMMETRIC,
-                      _DRIFT_EXACT if b.free_flow == "exact" else _DRIFT_AXES)
+    flow = b.drift_flow
+    use_sym = (sym != ASYMMETRIC) & ((flow != "axes") | (sym == SPHERICAL))
+    choice = np.where(use_sym, _DRIFT_SYMMETRIC, _DRIFT_EXACT if flow == "exact" else _DRIFT_AXES)
     if not np.any(choice == _DRIFT_AXES):
         order = np.zeros(len(b), dtype=np.int64)  # no body's drift needs an ordering
     elif ordering is None:
@@ -465,7 +479,9 @@ def drift_stages(b: Bodies, key: int) -> tuple[list[Stage], dict]:
     A spherical or symmetric body gets its exact flow (trig functions only), unless
     the scene asks for ``free_flow="axes"``; otherwise ``free_flow="exact"`` gives the
     elliptic exact flow and ``"auto"``/``"axes"`` the 5-rotation axis splitting (the
-    ordering given, or the best for the orbit of ``m0``).
+    ordering given, or the best for the orbit of ``m0``), except that ``"auto"`` is the
+    exact flow on scenes whose ``auto_free_flow`` says so (:attr:`Bodies.drift_flow`:
+    :class:`~liebody.GravityGradient`, a fast rotator under a weak torque).
     """
     choice, sym1, order = split(key, 3)
     sym = sym1 - 1
@@ -637,7 +653,11 @@ class SR2Splitting(FreeFlowRecipe):
 class BestSplitting(FreeFlowRecipe):
     """The better second-order base for the orbit: :class:`AxisSplitting` or :class:`SR2Splitting`.
 
-    On torqued scenes the axis splitting's drift (:func:`drift_stages`).
+    On torqued (or damped) scenes the same choice is the drift between the kicks, so a
+    composition keeps its base when a torque is added: for an asymmetric body with
+    ``free_flow="auto"`` the better of SR2 and the axis splitting for the orbit of
+    ``m0`` (a weak torque barely moves it off that orbit); ``free_flow="exact"`` or
+    ``"axes"``, a symmetric body and a gyrostat as :func:`drift_stages`.
     """
 
     def free_keys(self, b, h):
@@ -659,10 +679,23 @@ class BestSplitting(FreeFlowRecipe):
             "energy_error_constant": _one(score)}
 
     def drift_keys(self, b, h):
-        return drift_keys(b)
+        keys = drift_keys(b)
+        asym = b.symmetry == ASYMMETRIC
+        if b.drift_flow != "auto" or b.has_rotor or not asym.any():
+            return keys  # (a symmetric body's drift reads no orbit: its plan is shared)
+        free = self.free_keys(b, h)  # combine(use_sr2, symmetry + 1, ordering)
+        sr2 = asym & (free >> 8 == 1)
+        return np.where(sr2, _DRIFT_SR2_KEYS + free, keys)
 
     def drift(self, b, h, key):
+        if key >= _DRIFT_SR2_KEYS:  # SR2 between the kicks, as on the free body
+            stages, info = self.free(b, h, key - _DRIFT_SR2_KEYS)
+            return stages, {**info, "free_flow": f"sr2 {info['sr2_variant']}"}
         return drift_stages(b, key)
+
+
+#: offset of BestSplitting's SR2 drift keys (above every key of ``drift_keys``)
+_DRIFT_SR2_KEYS = 1 << 12
 
 
 @dataclass(frozen=True)
