@@ -35,6 +35,7 @@ import math
 import time
 
 import numpy as np
+from numba import njit
 
 import liebody
 from bench import core
@@ -453,3 +454,243 @@ BENCHMARK = core.Benchmark(
     name="work_precision", settings=settings, run=run, csv=csv_table, plot=plot, report=report,
     options=(core.Option("--problem", "problem_keys", choices=PROBLEM_KEYS,
                          repeat=True, help="only this problem (repeatable)"),))
+
+
+# ------------------------------------------------------------------------ satellites
+#
+# A satellite in the gravity gradient of the Earth (liebody.GravityGradient on a
+# circular low Earth orbit), in SI units: a fast tumble under a weak torque (the torque
+# turns L by about 1e-6 of its size per second) and a slow libration about the orbital
+# frame (the torque is as strong as the motion). The horizons are a day and ten orbits,
+# so these problems have their own ladders and reference instead of the T = 10 / 1e4 of
+# the problems above. Run ``python -m bench.work_precision --satellite [--quick]
+# [--out DIR]``: it writes work_precision_satellite.{json,csv,png}.
+
+#: the Earth's gravitational parameter (m^3/s^2) and the orbit radius (m, 400 km up)
+GM_EARTH, R_LEO = 3.986004418e14, 6778.0e3
+#: the spacecraft's principal moments (kg m^2): I_pitch > I_roll > I_yaw, the
+#: Lagrange region of gravity-gradient stability (analysis.gravity_gradient_stability)
+SAT_MOMENTS = (100.0, 120.0, 80.0)
+#: ``(label, method, free_flow)`` of the liebody runs: the defaults (``free_flow="auto"``
+#: is the exact free flow between the kicks on a GravityGradient scene) and the axis
+#: splitting between the kicks (``"axes"``), the drift of every scene but this one
+SAT_CONTENDERS = (("splitting2", "splitting2", "auto"), ("splitting4", "splitting4", "auto"),
+                  ("splitting6", "splitting6", "auto"),
+                  ("splitting2 axes", "splitting2", "axes"),
+                  ("splitting4 axes", "splitting4", "axes"), ("rk4", "rk4", "auto"),
+                  ("rattle", "rattle", "auto"))
+#: error levels (rad) of the satellite report
+SAT_LEVELS = (1e-2, 1e-4, 1e-6, 1e-8)
+
+
+def satellite_problems(quick: bool) -> dict:
+    """The two satellites: ``tumble`` (0.5 rad/s about the intermediate axis, a day)
+    and ``libration`` (about the orbit-pointing attitude, ten orbits of 1.6 h)."""
+    from liebody.attitude import lvlh_quaternion
+    from liebody.orbits import Circular
+
+    n = math.sqrt(GM_EARTH / R_LEO**3)
+    I = np.array(SAT_MOMENTS)
+    # the Earth seen from the satellite: the orbit's position vector reversed
+    r_sat, v_sat = -R_LEO * np.array([1.0, 0.0, 0.0]), -R_LEO * n * np.array([0.0, 1.0, 0.0])
+    return {
+        "tumble": {"title": "spacecraft tumbling near its intermediate axis, |omega| = 0.5 rad/s,"
+                            " LEO gravity gradient", "n": n, "T": 3600.0 if quick else 86400.0,
+                   "q0": np.array([1.0, 0.0, 0.0, 0.0]), "L0": I * np.array([0.5, 0.01, 0.01]),
+                   "h_max": 3.2, "orbit": Circular(n, R_LEO)},
+        "libration": {"title": "spacecraft librating about the orbital frame, |omega| ~ n,"
+                               " LEO gravity gradient", "n": n,
+                      "T": 11520.0 if quick else 57600.0,
+                      "q0": lvlh_quaternion(r_sat, v_sat),
+                      "L0": I * np.array([0.2 * n, -1.1 * n, 0.15 * n]),
+                      "h_max": 480.0, "orbit": Circular(n, R_LEO)},
+    }
+
+
+def _sat_scene(pb: dict, free_flow: str):
+    return liebody.GravityGradient(liebody.RigidBody(SAT_MOMENTS), [(GM_EARTH, pb["orbit"])],
+                                   free_flow=free_flow)
+
+
+@njit(cache=True)
+def _sat_rhs(t, y, inv_moments, moments, k, radius, n):  # pragma: no cover - compiled
+    """(q, L)' under the gravity-gradient torque of a source on the circular orbit
+    ``radius (cos n t, sin n t, 0)``: ``3 GM / r^5 (r x I r)``, ``r`` in the body frame."""
+    w, x, yq, z = y[0], y[1], y[2], y[3]
+    o0, o1, o2 = y[4] * inv_moments[0], y[5] * inv_moments[1], y[6] * inv_moments[2]
+    out = np.empty(7)
+    out[0] = 0.5 * (-x * o0 - yq * o1 - z * o2)
+    out[1] = 0.5 * (w * o0 + yq * o2 - z * o1)
+    out[2] = 0.5 * (w * o1 + z * o0 - x * o2)
+    out[3] = 0.5 * (w * o2 + x * o1 - yq * o0)
+    s = 1.0 / (w * w + x * x + yq * yq + z * z)
+    rx, ry = radius * math.cos(n * t), radius * math.sin(n * t)
+    # r in the body frame: R(q)^T r with R(q) of the normalised q (r has no z part)
+    b0 = ((1.0 - 2.0 * s * (yq * yq + z * z)) * rx + 2.0 * s * (x * yq + w * z) * ry)
+    b1 = (2.0 * s * (x * yq - w * z) * rx + (1.0 - 2.0 * s * (x * x + z * z)) * ry)
+    b2 = (2.0 * s * (x * z + w * yq) * rx + 2.0 * s * (yq * z - w * x) * ry)
+    c = 3.0 * k / (rx * rx + ry * ry) ** 2.5
+    i0, i1, i2 = moments[0] * b0, moments[1] * b1, moments[2] * b2
+    out[4] = y[5] * o2 - y[6] * o1 + c * (b1 * i2 - b2 * i1)
+    out[5] = y[6] * o0 - y[4] * o2 + c * (b2 * i0 - b0 * i2)
+    out[6] = y[4] * o1 - y[5] * o0 + c * (b0 * i1 - b1 * i0)
+    return out
+
+
+def _sat_dop853(pb: dict, rtol: float) -> tuple[np.ndarray, int]:
+    from scipy.integrate import solve_ivp
+
+    I = np.array(SAT_MOMENTS)
+    L0 = pb["L0"]
+    atol = np.r_[np.full(4, rtol), np.full(3, rtol * np.linalg.norm(L0))]
+    sol = solve_ivp(_sat_rhs, (0.0, pb["T"]), np.concatenate([pb["q0"], L0]), method="DOP853",
+                    rtol=rtol, atol=atol, args=(1.0 / I, I, GM_EARTH, R_LEO, pb["n"]))
+    return sol.y[:4, -1], int(sol.nfev)
+
+
+def _sat_liebody(pb: dict, method: str, free_flow: str, h: float):
+    steps = round(pb["T"] / h)
+    scene = _sat_scene(pb, free_flow)
+    with core.quiet_runtime_warnings():
+        def go():
+            return liebody.integrate(scene, q0=pb["q0"], L0=pb["L0"], dt=h, steps=steps,
+                                     method=method, save_every=steps)
+        return go, go()
+
+
+def _angle(q, q_ref) -> float:
+    q = np.asarray(q, dtype=float)
+    if not np.all(np.isfinite(q)):
+        return math.inf
+    return float(liebody.quaternion.angle_between(q / np.linalg.norm(q), q_ref))
+
+
+def satellite_settings(quick: bool) -> dict:
+    return {"quick": quick, "halvings": list(range(0, 6 if quick else 12)),
+            "repeat": 3 if quick else 5, "min_batch": 0.005 if quick else 0.02,
+            "cap": 0.3 if quick else 3.0,
+            "rtols": [10.0**-k for k in range(3, 11 if quick else 13)]}
+
+
+def satellite_run(cfg: dict, progress: core.Progress) -> dict:
+    """Every contender's step ladder and DOP853's tolerance ladder on both satellites,
+    against DOP853 at rtol = atol = 1e-13, checked against ``splitting6`` (exact free
+    flow) at a fine step: their difference is the reference uncertainty."""
+    rows: list[dict] = []
+    out: dict = {"problems": {}}
+    for key, pb in satellite_problems(cfg["quick"]).items():
+        q_ref, _ = _sat_dop853(pb, 1e-13)
+        _, check = _sat_liebody(pb, "splitting6", "auto", pb["h_max"] / 64)
+        floor = max(_angle(check.q[-1], q_ref), 1e-14)
+        bar = progress([*SAT_CONTENDERS, ("scipy DOP853", None, None)], f"satellite {key}")
+        for label, method, free_flow in bar:
+            if method is None:
+                for rtol in cfg["rtols"]:
+                    wall, _ = core.median_time(lambda r=rtol, pb=pb: _sat_dop853(pb, r), 1, 0.0)
+                    q, nfev = _sat_dop853(pb, rtol)
+                    rows.append({"problem": key, "method": label, "setting": rtol,
+                                 "steps": nfev, "wall_s": wall, "error": _angle(q, q_ref)})
+                    if wall > cfg["cap"]:
+                        break
+                continue
+            for k in cfg["halvings"]:
+                h = pb["h_max"] / 2**k
+                bar.set_postfix_str(f"{key} {label} h={h:.3g}")
+                try:
+                    go, tr = _sat_liebody(pb, method, free_flow, h)
+                except (liebody.ConvergenceError, ValueError):
+                    continue  # an implicit step without a solution: a smaller step
+                err = math.inf if tr.failed_at is not None else _angle(tr.q[-1], q_ref)
+                wall, _ = core.median_time(go, cfg["repeat"], cfg["min_batch"])
+                rows.append({"problem": key, "method": label, "setting": h,
+                             "steps": round(pb["T"] / h), "wall_s": wall, "error": err,
+                             "free_flow": tr.info.get("free_flow", "")})
+                if err < floor or wall > cfg["cap"]:
+                    break
+        lines: dict[str, list] = {}
+        for r in rows:
+            if r["problem"] == key:
+                lines.setdefault(r["method"], []).append((r["wall_s"], r["error"]))
+        table = {}
+        for level in SAT_LEVELS:
+            costs = {m: cost_at(p, level) for m, p in lines.items()}
+            costs = {m: c for m, c in costs.items() if c is not None}
+            if not costs or level < floor:
+                table[f"{level:.0e}"] = {"best": None}
+                continue
+            best = min(costs, key=costs.get)
+            table[f"{level:.0e}"] = {"best": best, "best_wall_s": costs[best],
+                                     "ratio_over_best": {m: (costs[m] / costs[best]
+                                                             if m in costs else None)
+                                                         for m in lines}}
+        out["problems"][key] = {"title": pb["title"], "T": pb["T"],
+                                "reference": "DOP853 rtol = atol = 1e-13",
+                                "uncertainty": floor, "winners": table}
+    out["rows"] = rows
+    return out
+
+
+def satellite_csv(summary: dict) -> tuple[list[str], list[list]]:
+    fields = ("problem", "method", "setting", "steps", "wall_s", "error")
+    return list(fields), [[r[f] for f in fields] for r in summary["rows"]]
+
+
+def satellite_plot(summary: dict, plt):
+    keys = list(summary["problems"])
+    fig, axes = plt.subplots(1, len(keys), figsize=(6.5 * len(keys), 4.8), squeeze=False)
+    for ax, key in zip(axes[0], keys, strict=True):
+        info = summary["problems"][key]
+        names = []
+        for r in summary["rows"]:
+            if r["problem"] == key and r["method"] not in names:
+                names.append(r["method"])
+        for name in names:
+            pts = sorted((r["wall_s"], r["error"]) for r in summary["rows"]
+                         if r["problem"] == key and r["method"] == name
+                         and np.isfinite(r["error"]))
+            if pts:
+                x, y = np.array(pts).T
+                style = core.style(name.split()[0] if name != "scipy DOP853" else name)
+                style["label"] = name
+                if name.endswith(" axes"):
+                    style.update(ls="--", marker="x")
+                ax.loglog(x, np.clip(y, 1e-16, np.pi), **style)
+        ax.axhline(info["uncertainty"], color="0.6", lw=0.8)
+        core.label_axes(ax, "wall time of the run [s]",
+                        f"orientation error at T = {info['T']:g} s [rad]",
+                        f"{info['title']}\n{info['T'] / 3600:g} h")
+        ax.legend(fontsize=7, ncol=2, loc="lower left")
+    fig.suptitle("Work-precision on a gravity-gradient satellite (lower left is better)")
+    return fig
+
+
+def satellite_report(summary: dict) -> str:
+    lines = []
+    for key, info in summary["problems"].items():
+        lines.append(f"== {key}: {info['title']} (uncertainty {info['uncertainty']:.1e} rad)")
+        for level, entry in info["winners"].items():
+            if entry["best"] is None:
+                lines.append(f"  error {level}: below the reference or not reached")
+                continue
+            others = ", ".join(f"{m} {'-' if v is None else f'{v:.3g}x'}"
+                               for m, v in entry["ratio_over_best"].items() if m != entry["best"])
+            lines.append(f"  error {level}: best {entry['best']} ({entry['best_wall_s']:.3g} s);"
+                         f" cost / best: {others}")
+    return "\n".join(lines)
+
+
+SATELLITE_BENCHMARK = core.Benchmark(
+    name="work_precision_satellite", settings=satellite_settings, run=satellite_run,
+    csv=satellite_csv, plot=satellite_plot, report=satellite_report)
+
+
+if __name__ == "__main__":  # python -m bench.work_precision --satellite [--quick] [--out DIR]
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m bench.work_precision")
+    parser.add_argument("--satellite", action="store_true", required=True,
+                        help="the gravity-gradient satellites (the chart of the method guide)")
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--out", default=core.DEFAULT_OUT)
+    args = parser.parse_args()
+    print(satellite_report(core.measure(SATELLITE_BENCHMARK, args.out, args.quick)))
