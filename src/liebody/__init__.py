@@ -43,6 +43,9 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "Gyrostat": ("liebody.gyrostat", "Gyrostat"),
     "ReactionWheels": ("liebody.wheels", "ReactionWheels"),
     "wheels": ("liebody.wheels", None),
+    "coupled": ("liebody.coupled", None),
+    "CoupledBodies": ("liebody.coupled", "CoupledBodies"),
+    "DipoleLattice": ("liebody.coupled", "DipoleLattice"),
     "orbits": ("liebody.orbits", None),
     "attitude": ("liebody.attitude", None),
     "Stepper": ("liebody._stepper", "Stepper"),
@@ -77,6 +80,7 @@ if TYPE_CHECKING:  # pragma: no cover
         analysis,
         attitude,
         bodies,
+        coupled,
         distributed,
         errors,
         euler,
@@ -99,6 +103,7 @@ if TYPE_CHECKING:  # pragma: no cover
         register_splitting,
     )
     from liebody._stepper import Stepper  # noqa: F401
+    from liebody.coupled import CoupledBodies, DipoleLattice  # noqa: F401
     from liebody.errors import (  # noqa: F401
         CacheWarning,
         ConvergenceError,

@@ -362,6 +362,9 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     warning for all) and the others finish.
     """
     if not isinstance(scene, Scene):
+        if _is_coupled(scene):
+            return _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method,
+                                      save_every, progress, diagnostics, controls, t0)
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
@@ -391,11 +394,9 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
     if getattr(scene, "moving_rotor", False):  # reaction wheels: cut where they saturate
-        from liebody._wheels import integrate_wheels
-
-        return integrate_wheels(scene, method, q_init, m_init, dt, n_steps, save_every,
-                                progress, n_bodies, diagnostics, controls, t0,
-                                omega_given=omega0 is not None)
+        return scene._integrate_run(method, q_init, m_init, dt, n_steps, save_every,
+                                    progress, n_bodies, diagnostics, controls, t0,
+                                    omega_given=omega0 is not None)
     model = scene.torque_model()
     _check_potential(scene, model, q_init, n_bodies, t0)
     u = as_controls(scene, controls, n_bodies)
@@ -417,6 +418,42 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                           progress, threads, diagnostics, u, t0, simd)
     return run.sampled() if method.sampled else run.stepped()
+
+
+def _is_coupled(scene) -> bool:
+    """Whether ``scene`` (not a :class:`Scene`) is a :class:`liebody.CoupledBodies`."""
+    from liebody.coupled import CoupledBodies
+
+    return isinstance(scene, CoupledBodies)
+
+
+def _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method, save_every,
+                       progress, diagnostics, controls, t0):
+    """:func:`integrate` for :class:`liebody.CoupledBodies` (``liebody.coupled``)."""
+    from liebody.coupled import integrate_coupled
+
+    if controls is not None:
+        raise ValueError("controls are inputs of a ControlledBody's torque; a coupled "
+                         "system's torque takes params (CoupledBodies(..., params=...))")
+    if not isinstance(diagnostics, bool | np.bool_):
+        raise TypeError(f"diagnostics must be True or False, got {type(diagnostics).__name__}")
+    if diagnostics:
+        raise ValueError("diagnostics=True: the running diagnostics follow independent "
+                         "bodies; a coupled system's energy is Trajectory.energy (the "
+                         "total, kinetic plus V) and energy_drift(traj)")
+    if not isinstance(progress, bool | np.bool_):
+        raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
+    dt = as_positive_float("dt", dt)
+    t0 = float(as_float_array("t0", t0, shape=()))
+    if t0 + dt == t0:
+        raise ValueError(f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64, so the "
+                         f"clock could not advance")
+    n_steps = _step_count(dt, steps, t_end)
+    save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
+    t = _sample_times(n_steps, save_every, dt, scene.n_bodies, RUN_BYTES_PER_BODY)
+    return integrate_coupled(scene, q0=q0, L0=L0, omega0=omega0, dt=dt, n_steps=n_steps,
+                             save_every=save_every, method=method, progress=bool(progress),
+                             t0=t0, t=t)
 
 
 def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:

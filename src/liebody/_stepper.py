@@ -171,11 +171,15 @@ class Stepper:
     def __new__(cls, scene=None, *args, **kwargs):
         """A :class:`~liebody.ReactionWheels` scene gets the wheels' stepper
         (``liebody._wheels.WheelStepper``: the motor torques as :attr:`u`, the wheel
-        momenta and the saturations)."""
+        momenta and the saturations); a :class:`~liebody.CoupledBodies` system the
+        coupled one (``liebody.coupled.CoupledStepper``: the state of all bodies)."""
         if cls is Stepper and getattr(scene, "moving_rotor", False):
-            from liebody._wheels import WheelStepper
+            cls = scene._stepper_class()
+        if cls is Stepper and not isinstance(scene, Scene) and scene is not None:
+            from liebody.coupled import CoupledBodies, CoupledStepper
 
-            cls = WheelStepper
+            if isinstance(scene, CoupledBodies):  # (not a Stepper: __init__ is not re-run)
+                return CoupledStepper(scene, *args, **kwargs)
         return super().__new__(cls)
 
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,

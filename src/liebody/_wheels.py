@@ -22,16 +22,34 @@ from __future__ import annotations
 import copy
 import math
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
 from liebody._kernels import stages as S
 from liebody._stepper import Stepper
 from liebody._validate import as_float_array
-from liebody.wheels import Saturation
 
 _ROTOR = slice(S.P_L1, S.P_L3 + 1)
 _RATE = slice(S.P_LD1, S.P_LD3 + 1)
+
+
+class Saturation(NamedTuple):
+    """A wheel reaching one of its limits, as a record.
+
+    ``body`` (``None`` for a one-body run), ``t`` the time the limit takes effect (the
+    start of the step whose commanded torque is clipped; the end of the step at which
+    the wheel's momentum reaches ``J_k * max_speed``), ``wheel`` its index and ``limit``
+    ``"torque"`` or ``"speed"``. A record marks the start of an episode: the limit stays
+    active (the torque clipped, or the wheel held at its speed while the command pushes
+    it further) without a new record until it is left.
+    """
+
+    body: int | None
+    t: float
+    wheel: int
+    limit: str
+
 
 
 def _refuse_sampled(method) -> None:

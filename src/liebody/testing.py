@@ -877,7 +877,8 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
     Parameters
     ----------
     traj
-        A :class:`~liebody.Trajectory` of one body (its ``t`` and ``energy``), or
+        A :class:`~liebody.Trajectory` of one body (its ``t`` and ``energy``), or of a
+        coupled system (:class:`liebody.CoupledBodies`: its total energy), or
         ``None`` and ``t``, ``energy`` given: sample times (increasing; resampled to a
         uniform grid if they are not uniform) and energies.
     relative
@@ -896,7 +897,7 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
     if traj is not None:
         if t is not None or energy is not None:
             raise ValueError("give either traj or t and energy, not both")
-        if getattr(traj, "n_bodies", None):
+        if getattr(traj, "n_bodies", None) and not getattr(traj, "coupled", False):
             raise ValueError("energy_drift takes one body's trajectory; index the "
                              "ensemble's bodies one at a time")
         t, energy = traj.t, traj.energy

@@ -33,11 +33,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 
 from liebody._validate import as_float_array
+from liebody._wheels import Saturation
 from liebody.rigid_body import RigidBody
 from liebody.scenes import (
     _FREE,
@@ -54,27 +55,12 @@ from liebody.scenes import (
 
 __all__ = ["AXIS_TOL", "RANK_TOL", "ReactionWheels", "Saturation"]
 
+Saturation.__module__ = __name__  # (defined with the run code; documented and pickled here)
+
 #: the largest ``| |g_k| - 1 |`` accepted for a wheel axis
 AXIS_TOL = 1e-10
 #: the smallest singular value of ``A`` (unit columns) below which the axes are dependent
 RANK_TOL = 1e-9
-
-
-class Saturation(NamedTuple):
-    """A wheel reaching one of its limits, as a record.
-
-    ``body`` (``None`` for a one-body run), ``t`` the time the limit takes effect (the
-    start of the step whose commanded torque is clipped; the end of the step at which
-    the wheel's momentum reaches ``J_k * max_speed``), ``wheel`` its index and ``limit``
-    ``"torque"`` or ``"speed"``. A record marks the start of an episode: the limit stays
-    active (the torque clipped, or the wheel held at its speed while the command pushes
-    it further) without a new record until it is left.
-    """
-
-    body: int | None
-    t: float
-    wheel: int
-    limit: str
 
 
 def _limit(name: str, value, k: int) -> np.ndarray | None:
@@ -242,6 +228,19 @@ class ReactionWheels(Scene):
     per_body: ClassVar[dict[str, int]] = {"inertia": 1, "momentum": 1}
     #: the rotor momentum changes in time: the run code writes it into the stages
     moving_rotor: ClassVar[bool] = True
+
+    def _integrate_run(self, *args, **kwargs):
+        """:func:`liebody.integrate` of this scene (``liebody._wheels.integrate_wheels``):
+        the run code reaches it through the scene, so that it imports no wheel module."""
+        from liebody._wheels import integrate_wheels
+
+        return integrate_wheels(self, *args, **kwargs)
+
+    def _stepper_class(self):
+        """The :class:`liebody.Stepper` of this scene (``liebody._wheels.WheelStepper``)."""
+        from liebody._wheels import WheelStepper
+
+        return WheelStepper
 
     def __init__(self, body: RigidBody, axes, inertia, momentum=0.0, max_torque=None,
                  max_speed=None, sources=None, free_flow: str = "auto") -> None:

@@ -1,0 +1,729 @@
+"""Interacting rigid bodies: ``N`` rotors coupled by a potential of all their orientations.
+
+:class:`CoupledBodies` is the scene: ``N`` rigid bodies (their centres fixed) with the
+Hamiltonian ``H = sum_i T_i(L_i) + V(t, q_1, ..., q_N)``. :func:`liebody.integrate` and
+:class:`liebody.Stepper` run it with the splittings of liebody and their compositions:
+a *kick* of every body by the collective torque with all orientations fixed (the exact
+flow of ``V``: ``L_i += tau N_i``), then each body's own free flow (the exact axis or
+sphere sub-flows of the method, on the SIMD kernels of the ensembles, or the exact
+free flow), as in the splittings of one body (McLachlan 1993; Dullweber, Leimkuhler &
+McLachlan, J. Chem. Phys. 107 (1997) 5840, the rigid-body splitting for molecular
+dynamics). Every sub-flow is the exact flow of a Hamiltonian, so the methods are
+symplectic and reversible and have the order of the method (2 for ``splitting2``,
+4, 6 and 8 for the compositions).
+
+Angular momentum. A free flow keeps each body's spatial angular momentum
+``R(q_i) L_i``; a kick changes the total by ``tau sum_i R(q_i) N_i``, the net torque in
+space. If ``V`` is invariant under a common rotation of all bodies
+(``V(R q_1, ..., R q_N) = V(q_1, ..., q_N)``), that net torque vanishes identically, so the
+total spatial angular momentum is kept to round-off by every step, whatever the step
+size. Point dipoles on fixed sites (:class:`DipoleLattice`) are not such a potential:
+the sites pick directions in space, and the lattice takes up angular momentum.
+
+Units: ``k_B = 1`` in the thermal helpers (:func:`thermal_momenta`,
+:func:`kinetic_temperature`): a temperature is an energy.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from liebody._validate import as_float_array, as_positive_float, as_unit_quaternion
+from liebody.errors import IntegrationInterrupted, InvariantWarning, TorqueError
+from liebody.rigid_body import RigidBody
+from liebody.trajectory import Trajectory
+
+__all__ = ["CoupledBodies", "CoupledTrajectory", "DipoleLattice", "kinetic_temperature",
+           "neighbours", "thermal_momenta", "uniform_orientations"]
+
+#: the methods a coupled system runs: kicks and free flows (the others are refused)
+_KINDS_OK = None
+
+
+def _rigid_bodies(bodies) -> np.ndarray:
+    """The principal moments ``(N, 3)`` of a batch :class:`RigidBody` or a sequence of
+    single ones."""
+    if isinstance(bodies, RigidBody):
+        if not bodies.shape:
+            raise ValueError("bodies must be N >= 1 rigid bodies: a RigidBody.batch or a "
+                             "list of RigidBody (one body is a scene of liebody.integrate "
+                             "itself)")
+        return np.array(bodies.moments, dtype=float)
+    try:
+        items = list(bodies)
+    except TypeError:
+        raise TypeError(f"bodies must be a RigidBody.batch or a sequence of RigidBody, got "
+                        f"{type(bodies).__name__}") from None
+    if not items:
+        raise ValueError("bodies must hold at least one body")
+    for i, b in enumerate(items):
+        if not isinstance(b, RigidBody) or b.shape:
+            raise TypeError(f"bodies[{i}] must be a single RigidBody, got "
+                            f"{type(b).__name__}")
+    return np.array([b.moments for b in items], dtype=float)
+
+
+def _is_compiled(fn) -> bool:
+    return hasattr(fn, "py_func") and hasattr(fn, "signatures")
+
+
+class CoupledBodies:
+    """``N`` rigid bodies coupled by a potential ``V(t, q_1, ..., q_N)`` of their
+    orientations (and time).
+
+    Parameters
+    ----------
+    bodies
+        The bodies: a :meth:`RigidBody.batch` of ``N`` or a sequence of ``N``
+        :class:`RigidBody` (principal frames; the centres are fixed).
+    torque
+        A numba-compiled function ``torque(t, q, L, params, out)`` that writes every
+        body's torque, in its own body frame, into ``out`` ``(N, 3)``, from the
+        orientations ``q`` ``(N, 4)`` (unit quaternions, scalar first, body to space: the
+        state's ``q / |q|``), the body-frame
+        angular momenta ``L`` ``(N, 3)`` (for the signature only: the torque of a
+        potential does not depend on them) and ``params``. For a potential ``V``, body
+        ``i``'s torque is minus the derivative of ``V`` under a rotation of body ``i``:
+        ``N_i = -dV/d(eps_i)`` with ``q_i -> q_i exp(eps_i / 2)`` (body frame).
+    potential
+        Optional ``potential(t, q, params) -> float``, the ``V`` the torque derives
+        from (compiled or plain Python): the energy of the trajectory and the energy
+        check at the end of a run use it. Without it the energy is the kinetic part.
+    params
+        Optional per-body parameters ``(N, k)`` (their first axis is the body; passed
+        to the torque as a float64 C-contiguous array, ``(N, 0)`` when not given).
+
+    Notes
+    -----
+    Integrate with :func:`liebody.integrate` (``q0`` ``(N, 4)`` or one for all, ``L0`` /
+    ``omega0`` ``(N, 3)``; methods ``splitting2`` (default), ``no_squish``,
+    ``splitting4/6/8`` and ``exact`` (the exact free flow between kicks)), or step by
+    step with :class:`liebody.Stepper`. The collective torque is called once per kick
+    (once per step for ``splitting2``, whose end kicks merge), the free flows cost what
+    they cost in an ensemble. See the module :mod:`liebody.coupled` for the angular
+    momentum.
+    """
+
+    default_method = "splitting2"
+
+    def __init__(self, bodies, torque, potential=None, params=None) -> None:
+        self.moments = _rigid_bodies(bodies)
+        n = self.moments.shape[0]
+        if not callable(torque):
+            raise TypeError(f"torque must be a compiled function torque(t, q, L, params, "
+                            f"out), got {type(torque).__name__}")
+        if not _is_compiled(torque):
+            raise TypeError("torque must be compiled with numba (numba.njit): the kicks "
+                            "call it from compiled code, torque(t, q, L, params, out)")
+        if potential is not None and not callable(potential):
+            raise TypeError(f"potential must be a function potential(t, q, params), got "
+                            f"{type(potential).__name__}")
+        if params is None:
+            p = np.zeros((n, 0))
+        else:
+            p = as_float_array("params", params)
+            if p.ndim == 1:
+                p = p[:, None]
+            if p.ndim != 2 or p.shape[0] != n:
+                raise ValueError(f"params must have shape (N, k) with N = {n} bodies (one "
+                                 f"row per body), got shape {p.shape}")
+        self.params = np.ascontiguousarray(p, dtype=np.float64)
+        self.params.flags.writeable = False
+        self.torque = torque
+        self.potential_function = potential
+        self._address = None
+
+    @property
+    def n_bodies(self) -> int:
+        return int(self.moments.shape[0])
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        return (self.n_bodies,)
+
+    @property
+    def address(self) -> int:
+        """The address of the torque's C callback (made on first use, then kept)."""
+        if self._address is None:
+            from liebody._kernels.coupled import adapt_coupled_torque
+
+            self._address = adapt_coupled_torque(self.torque)
+        return self._address
+
+    def potential(self, q, t: float = 0.0) -> float:
+        """``V(t, q)`` for the orientations ``q`` ``(N, 4)`` (NaN without a potential)."""
+        if self.potential_function is None:
+            return math.nan
+        return float(self.potential_function(float(t), np.ascontiguousarray(q, dtype=float),
+                                             self.params))
+
+    def evaluate_torque(self, q, L, t: float = 0.0) -> np.ndarray:
+        """The collective torque ``(N, 3)`` at ``(t, q, L)``, called from Python (raises
+        what the torque raises)."""
+        out = np.zeros((self.n_bodies, 3))
+        self.torque(float(t), np.ascontiguousarray(q, dtype=float),
+                    np.ascontiguousarray(L, dtype=float), self.params, out)
+        return out
+
+    def take(self, i):
+        """Body ``i`` alone, free (for ``Trajectory.body(i)``: its samples, not its
+        coupling)."""
+        from liebody.scenes import FreeBody
+
+        return FreeBody(RigidBody(self.moments[i], check_triangle=False))
+
+    def __repr__(self) -> str:
+        return (f"{type(self).__name__}({self.n_bodies} bodies, torque="
+                f"{getattr(self.torque, '__name__', self.torque)!s})")
+
+
+def neighbours(sites, cutoff: float) -> np.ndarray:
+    """Each site's neighbours within ``cutoff``: ``(N, K)`` int64, padded with -1 (``K``
+    the largest count), from a cell list (``O(N)`` for a bounded density).
+
+    Parameters
+    ----------
+    sites : (N, 3) array
+        Positions.
+    cutoff : float
+        Distance (> 0); a pair closer than it is a neighbour pair (listed on both sides).
+    """
+    s = as_float_array("sites", sites)
+    if s.ndim != 2 or s.shape[1] != 3:
+        raise ValueError(f"sites must have shape (N, 3), got {s.shape}")
+    cutoff = as_positive_float("cutoff", cutoff)
+    cells: dict = {}
+    keys = np.floor(s / cutoff).astype(np.int64)
+    for i, key in enumerate(map(tuple, keys)):
+        cells.setdefault(key, []).append(i)
+    lists = []
+    c2 = cutoff * cutoff
+    for i, (a, b, c) in enumerate(keys):
+        near = [j for da in (-1, 0, 1) for db in (-1, 0, 1) for dc in (-1, 0, 1)
+                for j in cells.get((a + da, b + db, c + dc), ())]
+        near = np.array(sorted(j for j in near if j != i), dtype=np.int64)
+        if near.size:
+            d2 = np.sum((s[near] - s[i]) ** 2, axis=1)
+            near = near[d2 < c2]
+        lists.append(near)
+    K = max((len(x) for x in lists), default=0)
+    out = np.full((s.shape[0], K), -1, dtype=np.int64)
+    for i, x in enumerate(lists):
+        out[i, :len(x)] = x
+    return out
+
+
+class DipoleLattice(CoupledBodies):
+    """Point dipoles on fixed sites, each carried by a rigid body (a lattice of polar
+    rotors), through the :class:`CoupledBodies` interface.
+
+    ``V = sum_{i<j} [mu_i . mu_j - 3 (mu_i . e_ij)(mu_j . e_ij)] / r_ij^3`` with
+    ``mu_i = R(q_i) d_i`` and ``e_ij`` the unit vector between the sites (units in which
+    the coupling constant ``mu_0 / 4 pi`` is 1; J. D. Jackson, *Classical
+    Electrodynamics*, 3rd ed., 1999, eq. 5.72 for the field of a dipole).
+
+    Parameters
+    ----------
+    bodies
+        ``N`` bodies (a :meth:`RigidBody.batch` or a sequence).
+    sites : (N, 3) array
+        The fixed positions of the bodies' centres (no two closer than 1e-9 of their
+        spread).
+    dipoles : (N, 3) or (3,) array
+        Each body's dipole moment in its body frame.
+    cutoff : float, optional
+        Pairs farther apart are left out (a neighbour list, :func:`neighbours`); ``None``:
+        every pair (``O(N^2)`` per kick).
+
+    Notes
+    -----
+    The sites fix directions in space, so ``V`` is not invariant under a common rotation
+    of the dipoles: the total spatial angular momentum of the rotors is not conserved
+    (the lattice takes it up); the energy is, within the bounded error of a symplectic
+    method.
+    """
+
+    def __init__(self, bodies, sites, dipoles, cutoff=None) -> None:
+        from liebody._models import dipoles as model
+
+        moments = _rigid_bodies(bodies)
+        n = moments.shape[0]
+        s = as_float_array("sites", sites)
+        if s.shape != (n, 3):
+            raise ValueError(f"sites must have shape (N, 3) = ({n}, 3), one per body, got "
+                             f"{s.shape}")
+        d = as_float_array("dipoles", dipoles)
+        if d.shape not in ((3,), (n, 3)):
+            raise ValueError(f"dipoles must have shape (3,) or (N, 3) = ({n}, 3), got "
+                             f"{d.shape}")
+        d = np.broadcast_to(d, (n, 3))
+        spread = float(np.ptp(s, axis=0).max()) if n > 1 else 1.0
+        if n > 1:
+            order = np.lexsort(s.T[::-1])
+            gaps = np.linalg.norm(np.diff(s[order], axis=0), axis=1)
+            close = neighbours(s, max(1e-9 * spread, 1e-300)) if np.any(
+                gaps <= 1e-9 * spread) else None
+            if close is not None and np.any(close >= 0):
+                i = int(np.argmax((close >= 0).any(axis=1)))
+                raise ValueError(f"sites must be distinct: sites {i} and {int(close[i, 0])} "
+                                 f"coincide (closer than 1e-9 of the lattice's size)")
+        if cutoff is None:
+            nb = np.zeros((n, 0), dtype=np.int64)
+            count = np.full(n, -1.0)
+        else:
+            nb = neighbours(s, cutoff)
+            count = (nb >= 0).sum(axis=1).astype(float)
+        p = np.concatenate([s, d, count[:, None], nb.astype(float)], axis=1)
+        super().__init__(RigidBody.batch(moments, check_triangle=False), model.torque,
+                         model.potential, p)
+        self.sites = s
+        self.dipoles = np.array(d)
+        self.cutoff = cutoff
+
+
+# ------------------------------------------------------------------ thermal helpers
+def uniform_orientations(n: int, rng=None) -> np.ndarray:
+    """``n`` orientations drawn uniformly from SO(3) (Haar measure): unit quaternions
+    ``(n, 4)`` with ``w >= 0``, normalised standard normal 4-vectors (uniform on ``S^3``;
+    K. Shoemake, "Uniform random rotations", Graphics Gems III, 1992)."""
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+        raise ValueError(f"n must be a positive integer, got {n!r}")
+    g = np.random.default_rng(rng).normal(size=(int(n), 4))
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    g[g[:, 0] < 0] *= -1.0
+    return g
+
+
+def thermal_momenta(moments, temperature: float, rng=None) -> np.ndarray:
+    """Body-frame angular momenta drawn from the Maxwell–Boltzmann distribution at
+    ``temperature`` (``k_B = 1``): ``L_k ~ N(0, I_k T)`` independently, the distribution
+    ``exp(-sum L_k^2 / (2 I_k T))`` of a rigid rotor's momenta.
+
+    Parameters
+    ----------
+    moments : (N, 3) or (3,) array
+        Principal moments (one row per body).
+    temperature : float
+        ``k_B T`` (> 0).
+    """
+    I = as_float_array("moments", moments)
+    if I.shape[-1:] != (3,) or I.ndim > 2 or np.any(I <= 0):
+        raise ValueError(f"moments must be positive, shape (3,) or (N, 3), got {I.shape}")
+    T = as_positive_float("temperature", temperature)
+    return np.random.default_rng(rng).normal(size=I.shape) * np.sqrt(I * T)
+
+
+def kinetic_temperature(traj) -> np.ndarray:
+    """The kinetic temperature of a trajectory of ``N`` bodies at every sample:
+    ``T_kin = 2 <K> / (3 N)`` (``k_B = 1``; three rotational degrees of freedom per body),
+    ``K`` the total kinetic energy."""
+    K = np.asarray(traj.kinetic_energy)
+    if K.ndim != 2:
+        raise ValueError("kinetic_temperature needs the trajectory of N bodies (q of shape "
+                         "(N, n, 4))")
+    return 2.0 * K.sum(axis=0) / (3.0 * K.shape[0])
+
+
+# ------------------------------------------------------------------ the trajectory
+@dataclass(frozen=True, eq=False)
+class CoupledTrajectory(Trajectory):
+    """The trajectory of :class:`CoupledBodies`: per body ``q`` ``(N, n, 4)``, ``L``
+    ``(N, n, 3)`` (every per-body quantity of :class:`~liebody.Trajectory`), and the
+    system's :attr:`potential_energy`, :attr:`energy` ``(n,)``, :attr:`total_L_space`
+    ``(n, 3)`` and :attr:`temperature` ``(n,)``."""
+
+    #: one system, not independent bodies (``liebody.testing.energy_drift`` takes it)
+    coupled = True
+
+    @property
+    def potential_energy(self) -> np.ndarray:
+        """``V(t, q_1, ..., q_N)`` at every sample (NaN without a potential)."""
+        q = self.orientation
+        return np.array([self.scene.potential(q[:, k], t) for k, t in enumerate(self.t)])
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Total energy ``sum_i T_i + V`` at every sample."""
+        T = self.kinetic_energy.sum(axis=0)
+        return T if self.scene.potential_function is None else T + self.potential_energy
+
+    @property
+    def total_L_space(self) -> np.ndarray:
+        """``sum_i R(q_i) L_i``, the total spatial angular momentum ``(n, 3)``."""
+        return self.L_space.sum(axis=0)
+
+    @property
+    def temperature(self) -> np.ndarray:
+        """:func:`kinetic_temperature` at every sample."""
+        return kinetic_temperature(self)
+
+
+# ------------------------------------------------------------------ the run
+_SUPPORTED: tuple | None = None
+
+
+def supported_methods() -> tuple[str, ...]:
+    """The registered methods a coupled system runs (kicks between free flows)."""
+    global _SUPPORTED
+    if _SUPPORTED is None:
+        from liebody import methods
+
+        probe = CoupledBodies(RigidBody.batch([[1.0, 2.0, 3.0]]), _zero_torque())
+        ok = []
+        for m in methods():
+            try:
+                _tables(probe, m, np.array([[0.1, 0.2, 0.3]]), 0.1)
+            except ValueError:
+                continue
+            ok.append(m.name)
+        _SUPPORTED = tuple(ok)
+    return _SUPPORTED
+
+
+_ZERO = None
+
+
+def _zero_torque():
+    global _ZERO
+    if _ZERO is None:
+        from liebody._kernels._jit import jit
+
+        @jit
+        def zero(t, q, L):
+            return 0.0, 0.0, 0.0
+
+        _ZERO = zero
+    return _ZERO
+
+
+def _proxy(moments):
+    """A one-body-per-row torqued scene with the bodies' moments: the plans of a method
+    for kicks of an orientation-only torque between free flows."""
+    from liebody.scenes import TorqueBody
+
+    return TorqueBody(RigidBody.batch(moments, check_triangle=False), _zero_torque(),
+                      orientation_only=True)
+
+
+def _tables(scene, method, m0, h):
+    """The driver's tables for ``scene`` under ``method`` (see ``_kernels.coupled.run``);
+    ``ValueError`` for a method that is not kicks between free flows."""
+    from liebody._kernels import stages as S
+    from liebody._kernels.coupled import BLOCK, NOOP, ROWS  # noqa: F401
+
+    allowed = {S.AXIS, S.AXIS_RECURRING, S.SPHERE, S.EXACT}
+    try:
+        groups = method.plans(_proxy(scene.moments), m0, h)
+    except ValueError as exc:
+        raise ValueError(f"{method.name}: {exc}") from None
+    segs_all, kicks, times, merge = [], None, None, None
+    for idx, plan in groups:
+        kinds = plan.kinds.tolist()
+        if (not kinds or kinds[0] != S.KICK or kinds[-1] != S.KICK
+                or any(k not in allowed and k != S.KICK for k in kinds)):
+            raise ValueError(f"{method.name} is not kicks between free flows")
+        kc, kt, segs, t, cur = [], [], [], 0.0, []
+        for j, k in enumerate(kinds):
+            if k == S.KICK:
+                kc.append(float(plan.coefs[j]))
+                kt.append(t)
+                if j:
+                    segs.append(cur)
+                cur = []
+            else:
+                cur.append(j)
+            t += float(plan.clock[j])
+        if kicks is None:
+            kicks, times, merge = kc, kt, bool(plan.merge_ends)
+        elif kc != kicks or kt != times or bool(plan.merge_ends) != merge:
+            raise ValueError(f"{method.name}: the bodies' steps put their kicks at different "
+                             f"times (not a coupled step)")
+        segs_all.append((idx, plan, segs))
+    return groups, segs_all, np.array(kicks), np.array(times), merge
+
+
+class _Coupled:
+    """The prepared run of a coupled system: tables, blocks and work arrays."""
+
+    def __init__(self, scene, method, q0, m0, dt):
+        from liebody._kernels import stages as S
+        from liebody._kernels.coupled import BLOCK, NOOP, ROWS
+
+        self.scene, self.method, self.dt = scene, method, dt
+        n = scene.n_bodies
+        _, segs_all, kc, kt, merge = _tables(scene, method, m0, dt)
+        self.kc, self.kt, self.merge = kc, kt, merge
+        G, Sn = len(segs_all), len(kc) - 1
+        R = max([len(seg) for _, _, segs in segs_all for seg in segs] + [1])
+        rk = np.full((G, Sn, R), NOOP, dtype=np.int64)
+        ra = np.zeros((G, Sn, R), dtype=np.int64)
+        rc = np.zeros((G, Sn, R))
+        blocks = []
+        for g, (idx, plan, segs) in enumerate(segs_all):
+            for s, seg in enumerate(segs):
+                for r, j in enumerate(seg):
+                    rk[g, s, r], ra[g, s, r], rc[g, s, r] = plan.kinds[j], plan.axes[j], \
+                        plan.coefs[j]
+            idx = np.asarray(idx)
+            for a in range(0, len(idx), BLOCK):
+                blocks.append((g, idx[a:a + BLOCK], plan, a))
+        B = len(blocks)
+        self.blk_group = np.array([b[0] for b in blocks], dtype=np.int64)
+        self.blk_idx = np.zeros((B, BLOCK), dtype=np.int64)
+        self.blk_n = np.zeros(B, dtype=np.int64)
+        self.rates = np.zeros((B, Sn, R, BLOCK))
+        for b, (g, idx, plan, a) in enumerate(blocks):
+            self.blk_idx[b, :len(idx)] = idx
+            self.blk_n[b] = len(idx)
+            rows = plan.params if plan.params.shape[0] == 1 else plan.params[a:a + len(idx)]
+            for s, seg in enumerate(segs_all[g][2]):
+                for r, j in enumerate(seg):
+                    self.rates[b, s, r, :len(idx)] = rows[:, j, S.P_RATE]
+        self.rk, self.ra, self.rc = rk, ra, rc
+        self.bufs = np.zeros((B, ROWS * BLOCK))
+        self.moments = np.ascontiguousarray(scene.moments)
+        self.Q = np.empty((n, 4))
+        self.Lm = np.empty((n, 3))
+        self.out = np.empty((n, 3))
+        self.ctl = np.array([1, 0], dtype=np.int64)
+        self.set_state(q0, m0)
+
+    def set_state(self, q, m):
+        from liebody._kernels.coupled import BLOCK
+
+        for b in range(self.bufs.shape[0]):
+            k = self.blk_n[b]
+            idx = self.blk_idx[b, :k]
+            rows = self.bufs[b].reshape(7, BLOCK)
+            rows[:4, :k] = q[idx].T
+            rows[4:, :k] = m[idx].T
+        self.ctl[1] = 0
+
+    def state(self):
+        from liebody._kernels.coupled import BLOCK
+
+        n = self.scene.n_bodies
+        q, m = np.empty((n, 4)), np.empty((n, 3))
+        for b in range(self.bufs.shape[0]):
+            k = self.blk_n[b]
+            rows = self.bufs[b].reshape(7, BLOCK)
+            q[self.blk_idx[b, :k]] = rows[:4, :k].T
+            m[self.blk_idx[b, :k]] = rows[4:, :k].T
+        return q, m
+
+    def run(self, t0, step0, n_steps, save_every, final, q_out, m_out, row0):
+        from liebody._kernels.coupled import run
+
+        return run(self.kc, self.kt, self.rk, self.ra, self.rc, self.blk_group, self.blk_idx,
+                   self.blk_n, self.rates, self.moments, self.merge, self.dt, t0, float(step0),
+                   n_steps, save_every, final, self.bufs, self.ctl, self.Q, self.Lm, self.out,
+                   self.scene.params, self.scene.address, q_out, m_out, row0)
+
+
+def _initial(scene, q0, L0, omega0, name_q="q0"):
+    n = scene.n_bodies
+    q = as_unit_quaternion(name_q, q0)
+    if q.shape not in ((4,), (n, 4)):
+        raise ValueError(f"{name_q} must have shape (4,) or (N, 4) = ({n}, 4), got {q.shape}")
+    if (L0 is None) == (omega0 is None):
+        raise ValueError("give exactly one of L0 (body angular momenta) and omega0 (body "
+                         "angular velocities)")
+    name = "L0" if L0 is not None else "omega0"
+    v = as_float_array(name, L0 if L0 is not None else omega0)
+    if v.shape not in ((3,), (n, 3)):
+        raise ValueError(f"{name} must have shape (3,) or (N, 3) = ({n}, 3), got {v.shape}")
+    m = v if L0 is not None else scene.moments * v
+    return (np.ascontiguousarray(np.broadcast_to(q, (n, 4))),
+            np.ascontiguousarray(np.broadcast_to(m, (n, 3)), dtype=float))
+
+
+def _check_torque(scene, q, m, t0):
+    """Call the torque once from Python at the initial state: a wrong signature or a
+    failing torque is named before the run."""
+    try:
+        out = scene.evaluate_torque(q, m, t0)
+    except Exception as exc:
+        raise TorqueError(f"the coupled torque failed at the initial state: "
+                          f"{type(exc).__name__}: {exc}. It must be torque(t, q, L, params, "
+                          f"out) writing every body's torque into out (N, 3)") from exc
+    bad = ~np.isfinite(out).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise TorqueError(f"the coupled torque wrote non-finite values for body {i} at the "
+                          f"initial state: {out[i].tolist()}")
+
+
+def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method, progress,
+                      t0, t) -> CoupledTrajectory:
+    """:func:`liebody.integrate` for :class:`CoupledBodies` (after the shared checks)."""
+    from liebody import _methods
+    from liebody._engine import interrupt_after_call, time_slices
+
+    method = _methods.get(scene.default_method if method is None else method)
+    if method.name not in supported_methods():
+        raise ValueError(f"{method.name} does not run coupled bodies: they run kicks of the "
+                         f"collective torque between the bodies' free flows, i.e. "
+                         f"{', '.join(supported_methods())}")
+    q, m = _initial(scene, q0, L0, omega0)
+    _check_torque(scene, q, m, t0)
+    run = _Coupled(scene, method, q, m, dt)
+    n = scene.n_bodies
+    k = t.shape[0]
+    q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))
+    q_out[:, 0], m_out[:, 0] = q, m
+    run.ctl[:] = (save_every, 0)
+    done = saved = 0
+    status, body = 0, -1
+    try:
+        for size in time_slices(n_steps, progress, "step", max(1, 4096 // n)):
+            with interrupt_after_call():
+                d, s, status, body = run.run(t0, done, size, save_every, done + size == n_steps,
+                                             q_out, m_out, 1 + saved)
+                done += d
+                saved += s
+            if status != 0:
+                break
+    except KeyboardInterrupt:
+        traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
+                           m_out[:, :1 + saved].copy(), "interrupted")
+        raise IntegrationInterrupted(
+            f"{method.name}: interrupted after {done:,} of {n_steps:,} steps; the "
+            f"{1 + saved:,} samples so far are on this exception's .trajectory", traj, done,
+            t0 + done * dt) from None
+    if status != 0:
+        tf = t0 + done * dt
+        traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
+                           m_out[:, :1 + saved].copy(), "failed", tf + dt)
+        qs, ms = run.state()
+        cause = None
+        try:
+            scene.evaluate_torque(qs, ms, tf)
+        except Exception as exc:
+            cause = exc
+        raise TorqueError(
+            f"{method.name}: the coupled torque (or the momentum it kicked) was not finite "
+            f"for body {body} in step {done + 1:,} (t = {tf:.6g})"
+            + (f": {type(cause).__name__}: {cause}" if cause is not None else "")
+            + f"; the {1 + saved:,} samples before it are on this exception's .trajectory",
+            traj, done, tf) from cause
+    traj = _trajectory(scene, method, dt, t0, t, q_out, m_out, "complete",
+                       info={"groups": len(set(run.blk_group.tolist()))})
+    _check_energy(traj)
+    return traj
+
+
+def _trajectory(scene, method, dt, t0, t, q, m, status, failed_at=None, info=None):
+    times = t if t0 == 0.0 else t0 + t
+    return CoupledTrajectory(times, q, m, scene, method, dt, failed_at=failed_at,
+                             info=info or {}, status=status)
+
+
+def _check_energy(traj) -> None:
+    """Warn when the total energy left 1 % of its scale (a symplectic method on a
+    conservative system keeps it within a bounded error of the step's order)."""
+    if traj.scene.potential_function is None or len(traj.t) < 2:
+        return
+    q = traj.orientation
+    V0 = traj.scene.potential(q[:, 0], traj.t[0])
+    V1 = traj.scene.potential(q[:, -1], traj.t[-1])
+    T = traj.kinetic_energy
+    e0, e1 = T[:, 0].sum() + V0, T[:, -1].sum() + V1
+    scale = T[:, 0].sum() + abs(V0)
+    if not (math.isfinite(e0) and math.isfinite(e1)):
+        warnings.warn(f"{traj.method.name}: the energy of the coupled system is not finite "
+                      f"at the ends (V = {V0:.6g}, {V1:.6g})", InvariantWarning, stacklevel=4)
+    elif scale > 0 and not abs(e1 - e0) <= 1e-2 * scale:
+        warnings.warn(f"{traj.method.name}: the energy of the coupled system went from "
+                      f"{e0:.6g} to {e1:.6g}, more than 1% of its scale {scale:.3g} (the "
+                      f"step may be too large for this coupling)", InvariantWarning,
+                      stacklevel=4)
+
+
+class CoupledStepper:
+    """:class:`liebody.Stepper` for :class:`CoupledBodies`: the state of all bodies,
+    advanced step by step (``Stepper(scene, q0=..., L0=..., dt=...)`` makes one).
+
+    Attributes ``q`` ``(N, 4)``, ``L`` ``(N, 3)`` (read and set, copies), ``t`` (read and
+    set); :meth:`step` advances ``n`` steps. A stepper's steps equal those of
+    :func:`liebody.integrate` with ``save_every=1``, bit for bit.
+    """
+
+    def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
+                 method=None, t0: float = 0.0) -> None:
+        from liebody import _methods
+
+        self._scene = scene
+        self._dt = as_positive_float("dt", dt)
+        self._method = _methods.get(scene.default_method if method is None else method)
+        if self._method.name not in supported_methods():
+            raise ValueError(f"{self._method.name} does not run coupled bodies: "
+                             f"{', '.join(supported_methods())}")
+        q, m = _initial(scene, q0, L0, omega0)
+        _check_torque(scene, q, m, t0)
+        self._run = _Coupled(scene, self._method, q, m, self._dt)
+        self._t0 = float(t0)
+        self._k = 0
+        n = scene.n_bodies
+        self._q1, self._m1 = np.empty((n, 1, 4)), np.empty((n, 1, 3))
+
+    @property
+    def scene(self):
+        return self._scene
+
+    @property
+    def method(self):
+        return self._method
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    @property
+    def t(self) -> float:
+        return self._t0 + self._k * self._dt
+
+    @t.setter
+    def t(self, value) -> None:
+        self._t0 = float(as_float_array("t", value, shape=()))
+        self._k = 0
+
+    @property
+    def q(self) -> np.ndarray:
+        return self._run.state()[0]
+
+    @q.setter
+    def q(self, value) -> None:
+        n = self._scene.n_bodies
+        q = np.broadcast_to(as_unit_quaternion("q", value), (n, 4))
+        self._run.set_state(q, self._run.state()[1])
+
+    @property
+    def L(self) -> np.ndarray:
+        return self._run.state()[1]
+
+    @L.setter
+    def L(self, value) -> None:
+        n = self._scene.n_bodies
+        m = as_float_array("L", value)
+        if m.shape not in ((3,), (n, 3)):
+            raise ValueError(f"L must have shape (3,) or (N, 3) = ({n}, 3), got {m.shape}")
+        self._run.set_state(self._run.state()[0], np.broadcast_to(m, (n, 3)))
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps (``n >= 1``); a torque that fails raises
+        :class:`~liebody.errors.TorqueError` (the state is then that of the failing
+        step's start only up to the kicks already applied: set it again to go on)."""
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"n must be a positive integer, got {n!r}")
+        self._run.ctl[0] = 1
+        for _ in range(int(n)):
+            _, _, status, body = self._run.run(self._t0, self._k, 1, 1, True, self._q1,
+                                               self._m1, 0)
+            if status != 0:
+                raise TorqueError(f"{self._method.name}: the coupled torque was not finite "
+                                  f"for body {body} at t = {self.t:.6g}", None, 0, self.t)
+            self._k += 1
