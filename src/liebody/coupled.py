@@ -284,6 +284,13 @@ class DipoleLattice(CoupledBodies):
         self.dipoles = np.array(d)
         self.cutoff = cutoff
 
+    @property
+    def address(self) -> int:
+        """The built-in model's C callback (compiled once, cached on disk)."""
+        from liebody._models import dipoles
+
+        return dipoles.callback_address()
+
 
 # ------------------------------------------------------------------ thermal helpers
 def uniform_orientations(n: int, rng=None) -> np.ndarray:
@@ -484,6 +491,8 @@ class _Coupled:
                 for r, j in enumerate(seg):
                     self.rates[b, s, r, :len(idx)] = rows[:, j, S.P_RATE]
         self.rk, self.ra, self.rc = rk, ra, rc
+        self.rmax = np.abs(self.rates).max(axis=-1)
+        self.lmax = np.zeros(B)
         self.bufs = np.zeros((B, ROWS * BLOCK))
         self.moments = np.ascontiguousarray(scene.moments)
         self.Q = np.empty((n, 4))
@@ -501,6 +510,7 @@ class _Coupled:
             rows = self.bufs[b].reshape(7, BLOCK)
             rows[:4, :k] = q[idx].T
             rows[4:, :k] = m[idx].T
+            self.lmax[b] = np.sqrt((m[idx] ** 2).sum(axis=1).max())
         self.ctl[1] = 0
 
     def state(self):
@@ -519,9 +529,20 @@ class _Coupled:
         from liebody._kernels.coupled import run
 
         return run(self.kc, self.kt, self.rk, self.ra, self.rc, self.blk_group, self.blk_idx,
-                   self.blk_n, self.rates, self.moments, self.merge, self.dt, t0, float(step0),
-                   n_steps, save_every, final, self.bufs, self.ctl, self.Q, self.Lm, self.out,
-                   self.scene.params, self.scene.address, q_out, m_out, row0)
+                   self.blk_n, self.rates, self.rmax, self.moments, self.merge, self.dt, t0,
+                   float(step0), n_steps, save_every, final, self.bufs, self.ctl, self.Q,
+                   self.Lm, self.out, self.scene.params, self.scene.address, q_out, m_out,
+                   row0, self.lmax)
+
+
+def _prepare(scene, method, q, m, dt) -> _Coupled:
+    """The prepared run, or a ``ValueError`` naming the methods that run coupled bodies."""
+    try:
+        return _Coupled(scene, method, q, m, dt)
+    except ValueError as exc:
+        raise ValueError(f"{method.name} does not run coupled bodies ({exc}): they run kicks "
+                         f"of the collective torque between the bodies' free flows, i.e. "
+                         f"{', '.join(supported_methods())}") from None
 
 
 def _initial(scene, q0, L0, omega0, name_q="q0"):
@@ -564,13 +585,9 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     from liebody._engine import interrupt_after_call, time_slices
 
     method = _methods.get(scene.default_method if method is None else method)
-    if method.name not in supported_methods():
-        raise ValueError(f"{method.name} does not run coupled bodies: they run kicks of the "
-                         f"collective torque between the bodies' free flows, i.e. "
-                         f"{', '.join(supported_methods())}")
     q, m = _initial(scene, q0, L0, omega0)
+    run = _prepare(scene, method, q, m, dt)
     _check_torque(scene, q, m, t0)
-    run = _Coupled(scene, method, q, m, dt)
     n = scene.n_bodies
     k = t.shape[0]
     q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))
@@ -659,12 +676,9 @@ class CoupledStepper:
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
         self._method = _methods.get(scene.default_method if method is None else method)
-        if self._method.name not in supported_methods():
-            raise ValueError(f"{self._method.name} does not run coupled bodies: "
-                             f"{', '.join(supported_methods())}")
         q, m = _initial(scene, q0, L0, omega0)
+        self._run = _prepare(scene, self._method, q, m, self._dt)
         _check_torque(scene, q, m, t0)
-        self._run = _Coupled(scene, self._method, q, m, self._dt)
         self._t0 = float(t0)
         self._k = 0
         n = scene.n_bodies

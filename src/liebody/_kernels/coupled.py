@@ -19,14 +19,22 @@ from numba import config, types
 
 from liebody._kernels._jit import jit
 from liebody._kernels.batch import (
+    _AX0F,
     _AX0G,
+    _AX1F,
     _AX1G,
+    _AX2F,
     _AX2G,
+    _RC0F,
     _RC0G,
+    _RC1F,
     _RC1G,
+    _RC2F,
     _RC2G,
+    _SPHERE_FAST,
     _SPHERE_GENERAL,
     BLOCK,
+    FAST_LIMIT,
     M10,
     M20,
     M30,
@@ -129,10 +137,10 @@ call_coupled = _call_py if config.DISABLE_JIT else _call_intrinsic()
 
 
 @jit
-def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau):
+def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
     """``L_i += tau N_i(t, q_1..q_N)`` for every body, ``q`` fixed (the torque sees the unit
     quaternions ``q / |q|``); returns the first body whose torque (or kicked ``L``) is not
-    finite, -1 for none."""
+    finite, -1 for none; ``lmax[b]``: the largest ``|L|`` of block ``b`` after the kick."""
     for b in range(bufs.shape[0]):
         buf = bufs[b]
         for i in range(blk_n[b]):
@@ -148,6 +156,7 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau):
     bad = -1
     for b in range(bufs.shape[0]):
         buf = bufs[b]
+        big = 0.0
         for i in range(blk_n[b]):
             k = blk_idx[b, i]
             m1 = buf[M10 + i] + tau * out[k, 0]
@@ -158,22 +167,39 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau):
             if not size < math.inf and (bad < 0 or k < bad):
                 bad = k
             buf[M10 + i], buf[M20 + i], buf[M30 + i] = m1, m2, m3
+            m2s = m1 * m1 + m2 * m2 + m3 * m3
+            big = m2s if m2s > big else big
+        lmax[b] = math.sqrt(big)  # (the free flows keep |L|: a bound until the next kick)
     return bad
 
 
 @jit
-def _rotate(buf, kind, axis, rate, nb, tau, moments, idx):
-    """One free-flow stage of a block (the SIMD kernels with range reduction; the exact
-    flow body by body)."""
+def _rotate(buf, kind, axis, rate, nb, tau, moments, idx, fast):
+    """One free-flow stage of a block: the SIMD kernels, without range reduction where
+    ``fast`` (every half angle below ``batch.FAST_LIMIT``), the exact flow body by body."""
     if kind == AXIS:
-        if axis == 0:
+        if fast:
+            if axis == 0:
+                _AX0F(buf, rate, nb, tau)
+            elif axis == 1:
+                _AX1F(buf, rate, nb, tau)
+            else:
+                _AX2F(buf, rate, nb, tau)
+        elif axis == 0:
             _AX0G(buf, rate, nb, tau)
         elif axis == 1:
             _AX1G(buf, rate, nb, tau)
         else:
             _AX2G(buf, rate, nb, tau)
     elif kind == AXIS_RECURRING:
-        if axis == 0:
+        if fast:
+            if axis == 0:
+                _RC0F(buf, rate, nb, tau)
+            elif axis == 1:
+                _RC1F(buf, rate, nb, tau)
+            else:
+                _RC2F(buf, rate, nb, tau)
+        elif axis == 0:
             _RC0G(buf, rate, nb, tau)
         elif axis == 1:
             _RC1G(buf, rate, nb, tau)
@@ -181,7 +207,10 @@ def _rotate(buf, kind, axis, rate, nb, tau, moments, idx):
             _RC2G(buf, rate, nb, tau)
         _project_block(buf, nb, False, axis, rate, tau)
     elif kind == SPHERE:
-        _SPHERE_GENERAL(buf, rate, nb, tau)
+        if fast:
+            _SPHERE_FAST(buf, rate, nb, tau)
+        else:
+            _SPHERE_GENERAL(buf, rate, nb, tau)
         _project_block(buf, nb, True, axis, rate, tau)
     elif kind == EXACT:
         for i in range(nb):
@@ -207,16 +236,18 @@ def save(bufs, blk_idx, blk_n, q_out, m_out, row):
 
 
 @jit
-def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, moments, merge_ends, h, t0,
-        step0, n_steps, save_every, final, bufs, ctl, Q, Lm, out, params, addr, q_out, m_out,
-        row0):
+def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, merge_ends, h,
+        t0, step0, n_steps, save_every, final, bufs, ctl, Q, Lm, out, params, addr, q_out,
+        m_out, row0, lmax):
     """Advance the coupled bodies by ``n_steps`` steps of size ``h``.
 
     ``kc``, ``kt`` ``(S + 1,)``: the kicks' fractions of the step and their times within
     it (fractions of ``h``); ``rk``, ``ra``, ``rc`` ``(G, S, R)``: each group's free-flow
     stages of segment ``s`` (kind or :data:`NOOP`, axis, fraction of the step);
     ``blk_group`` ``(B,)``, ``blk_idx`` ``(B, BLOCK)``, ``blk_n`` ``(B,)``: each block's
-    group, bodies and count; ``rates`` ``(B, S, R, BLOCK)``: each stage's rate per body;
+    group, bodies and count; ``rates`` ``(B, S, R, BLOCK)``: each stage's rate per body,
+    ``rmax`` ``(B, S, R)`` its largest ``|rate|`` over the block; ``lmax`` ``(B,)``: work
+    (each block's largest ``|L|``, set by every kick; start it with the initial one);
     ``moments`` ``(N, 3)`` (the exact flow); ``bufs`` ``(B, ROWS * BLOCK)``: the state
     (updated in place); ``ctl`` ``(2,)``: steps left until the next save and whether the
     first kick of the next step was merged into this one's last (in place, across
@@ -244,7 +275,7 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, moments, merge_end
                 if s == S and merge:
                     tau = (kc[S] + kc[0]) * h
                 bad = _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t + kt[s] * h,
-                            tau)
+                            tau, lmax)
                 if bad >= 0:
                     return step, n_saved, STATUS_TORQUE, bad
             if s < S:
@@ -254,8 +285,10 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, moments, merge_end
                         kind = rk[g, s, r]
                         if kind == NOOP:
                             break
-                        _rotate(bufs[b], kind, ra[g, s, r], rates[b, s, r], blk_n[b],
-                                rc[g, s, r] * h, moments, blk_idx[b])
+                        tau = rc[g, s, r] * h
+                        half = 0.5 * abs(tau) * rmax[b, s, r] * lmax[b]
+                        _rotate(bufs[b], kind, ra[g, s, r], rates[b, s, r], blk_n[b], tau,
+                                moments, blk_idx[b], half * (1.0 + 1e-6) <= FAST_LIMIT)
         pending = merge
         if save_now:
             until_save = save_every

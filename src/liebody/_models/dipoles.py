@@ -97,3 +97,30 @@ def potential(t, q, params):
             f1, f2, f3 = _field(params, mu, i, j)
             V -= mu[i, 0] * f1 + mu[i, 1] * f2 + mu[i, 2] * f3
     return V
+
+
+_CALLBACK = None
+
+
+def callback_address() -> int:
+    """The address of :func:`torque` as the coupled driver's C callback
+    (``_kernels.coupled.COUPLED_SIG``), compiled once and kept in numba's disk cache (a
+    user's torque is wrapped afresh in every process; the built-in model need not be)."""
+    global _CALLBACK
+    if _CALLBACK is None:
+        from numba import carray, cfunc, config
+
+        from liebody._kernels.coupled import COUPLED_SIG, adapt_coupled_torque
+
+        if config.DISABLE_JIT:
+            return adapt_coupled_torque(torque)
+
+        def dipole_callback(t, qp, lp, pp, op, n, k):
+            torque(t, carray(qp, (n, 4)), carray(lp, (n, 3)), carray(pp, (n, k)),
+                   carray(op, (n, 3)))
+
+        try:
+            _CALLBACK = cfunc(COUPLED_SIG, cache=True)(dipole_callback)
+        except RuntimeError:  # no writable cache folder: compiled, not cached
+            _CALLBACK = cfunc(COUPLED_SIG)(dipole_callback)
+    return _CALLBACK.address
