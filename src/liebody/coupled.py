@@ -68,7 +68,10 @@ def _rigid_bodies(bodies) -> np.ndarray:
 
 
 def _is_compiled(fn) -> bool:
-    return hasattr(fn, "py_func") and hasattr(fn, "signatures")
+    """A numba dispatcher (any function when numba's JIT is off: ``NUMBA_DISABLE_JIT``)."""
+    from numba import config
+
+    return bool(config.DISABLE_JIT) or (hasattr(fn, "py_func") and hasattr(fn, "signatures"))
 
 
 class CoupledBodies:

@@ -145,6 +145,7 @@ def test_the_step_is_reversible():
     np.testing.assert_allclose(-b.L[:, -1], L0, atol=1e-11)
 
 
+@pytest.mark.kernel
 def test_the_stepper_equals_integrate_bit_for_bit():
     scene, q0, L0 = _system(3, seed=9)
     tr = liebody.integrate(scene, q0=q0, L0=L0, dt=0.05, steps=30, method="splitting4")
@@ -212,6 +213,7 @@ def _lattice(n=6, seed=21, cutoff=None, cubic=False):
                          cutoff=cutoff), uniform_orientations(n, rng=seed + 1), sites, d
 
 
+@pytest.mark.kernel
 def test_dipole_potential_against_the_pair_sum_and_the_cutoff():
     lat, q, sites, d = _lattice()
     assert lat.potential(q) == pytest.approx(_direct_potential(q, sites, d), rel=1e-13)
@@ -231,6 +233,7 @@ def test_dipole_potential_against_the_pair_sum_and_the_cutoff():
     assert {(i, int(j)) for i in range(6) for j in nb[i] if j >= 0 and j > i} == set(inside)
 
 
+@pytest.mark.kernel
 def test_dipole_torque_is_minus_the_derivative_of_the_potential():
     """N_i,a = -dV/d eps for q_i -> q_i exp(eps e_a / 2) (body frame), by central
     differences of the potential."""
@@ -311,6 +314,7 @@ def _blows_up(t, q, L, p, out):
         out[2, 1] = np.nan
 
 
+@pytest.mark.kernel
 def test_a_torque_that_fails_stops_the_run_naming_the_body_and_keeping_the_samples():
     scene, q0, L0 = _system()
     bad = CoupledBodies(liebody.RigidBody.batch(scene.moments, check_triangle=False),

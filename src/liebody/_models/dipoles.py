@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import prange
 
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import qrotate, qrotate_inv
@@ -49,13 +50,15 @@ def _field(params, mu, i, j):
     return (a * r1 - mu[j, 0]) * inv3, (a * r2 - mu[j, 1]) * inv3, (a * r3 - mu[j, 2]) * inv3
 
 
-@jit
+@jit(parallel=True)
 def torque(t, q, L, params, out):
-    """Every body's body-frame torque (the coupled-bodies interface)."""
+    """Every body's body-frame torque (the coupled-bodies interface), the bodies spread
+    over numba's threads (``numba.set_num_threads``); each body's sum in a fixed order,
+    so the numbers do not depend on the thread count."""
     n = q.shape[0]
     mu = np.empty((n, 3))
     _space_dipoles(q, params, mu)
-    for i in range(n):
+    for i in prange(n):
         b1 = b2 = b3 = 0.0
         count = int(params[i, HEAD - 1])
         if count < 0:
