@@ -98,6 +98,9 @@ def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
         _check_batch(w_name, omega)
         try:
             m = np.asarray(scene.moments) * omega
+            l = getattr(scene, "rotor_momentum", None)
+            if l is not None:  # a gyrostat: L = I omega + l
+                m = m + np.asarray(l, dtype=float)
         except ValueError:
             raise ValueError(f"{w_name} of shape {omega.shape} does not broadcast against "
                              f"the scene's moments of shape {np.shape(scene.moments)}") \

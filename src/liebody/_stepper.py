@@ -804,8 +804,11 @@ class Stepper:
 
     @property
     def omega(self) -> np.ndarray:
-        """Body angular velocity ``L / I`` (settable like :attr:`L`)."""
-        return self.L / np.asarray(self._scene.moments)
+        """Body angular velocity ``L / I`` (a gyrostat's ``(L - l) / I``; settable like
+        :attr:`L`)."""
+        l = getattr(self._scene, "rotor_momentum", None)
+        L = self.L if l is None else self.L - np.asarray(l, dtype=float)
+        return L / np.asarray(self._scene.moments)
 
     @omega.setter
     def omega(self, value) -> None:

@@ -200,18 +200,33 @@ class Trajectory:
         return m[:, None, :] if (m.ndim == 2 and self.q.ndim == 3) else m
 
     @property
+    def _rotor(self):
+        """A gyrostat's rotor momentum ``l``, shaped to broadcast against ``L`` (``None``
+        for a rigid body)."""
+        l = getattr(self.scene, "rotor_momentum", None)
+        if l is None:
+            return None
+        l = np.asarray(l, dtype=float)
+        return l[:, None, :] if (l.ndim == 2 and self.q.ndim == 3) else l
+
+    @property
     def omega(self) -> np.ndarray:
-        """Body-frame angular velocity ``omega_i = L_i / I_i``."""
-        return self.L / self.moments
+        """Body-frame angular velocity ``omega_i = L_i / I_i`` (a gyrostat's
+        ``(L_i - l_i) / I_i``, ``l`` its rotor momentum)."""
+        l = self._rotor
+        return (self.L if l is None else self.L - l) / self.moments
 
     @property
     def kinetic_energy(self) -> np.ndarray:
-        """``T = sum L_i^2 / (2 I_i)``; with reaction wheels (:attr:`wheels`) the scene's
+        """``T = sum L_i^2 / (2 I_i)`` (a gyrostat's ``sum (L_i - l_i)^2 / (2 I_i)``); with
+        reaction wheels (:attr:`wheels`) the scene's
         kinetic energy of body and wheels,
         ``(L - A h)^T I^-1 (L - A h) / 2 + sum_k h_k^2 / (2 J_k)``."""
         if self.wheels is not None:
             return self.scene.kinetic_energy(self.L, self.wheels)
-        return 0.5 * np.sum(self.L * self.L / self.moments, axis=-1)
+        l = self._rotor
+        d = self.L if l is None else self.L - l  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
+        return 0.5 * np.sum(d * d / self.moments, axis=-1)
 
     def _finite(self) -> np.ndarray:
         """Mask of the samples with a finite state (an ensemble's failed bodies have NaN

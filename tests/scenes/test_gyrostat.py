@@ -126,3 +126,27 @@ def test_bad_gyrostats_are_refused_by_name():
         liebody.Gyrostat(liebody.RigidBody.batch([I, I]), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="free_flow='exact'"):
         liebody.Gyrostat(liebody.RigidBody(I), ROTOR, free_flow="exact")
+
+
+def test_omega_is_the_bodys_and_the_energy_is_the_gyrostats():
+    """omega0 is the body's angular velocity: L = I omega + l; the trajectory's and the
+    stepper's omega are (L - l) / I and the kinetic energy (L - l)^T I^-1 (L - l) / 2,
+    which the splitting keeps bounded (sum L^2 / 2I, the rigid body's, is not kept)."""
+    I = np.array([80.0, 100.0, 120.0])
+    l = np.array([0.0, 30.0, 5.0])
+    scene = liebody.Gyrostat(liebody.RigidBody(I), l)
+    w0 = np.array([0.01, 1.0, 0.02])
+    tr = liebody.integrate(scene, omega0=w0, dt=0.01, t_end=100.0, method="splitting2")
+    np.testing.assert_allclose(tr.L[0], I * w0 + l, rtol=1e-15)
+    np.testing.assert_allclose(tr.omega[0], w0, rtol=1e-13)
+    H = 0.5 * np.sum((tr.L - l) ** 2 / I, axis=1)
+    np.testing.assert_allclose(tr.kinetic_energy, H, rtol=1e-15)
+    assert np.ptp(tr.energy) < 1e-4 * tr.energy[0]
+    assert np.ptp(0.5 * np.sum(tr.L**2 / I, axis=1)) > 1e3 * np.ptp(tr.energy)
+    st = liebody.Stepper(scene, omega0=w0, dt=0.01, method="splitting2")
+    np.testing.assert_allclose(st.omega, w0, rtol=1e-13)
+    st.omega = [0.0, 0.5, 0.0]
+    np.testing.assert_allclose(st.L, I * [0.0, 0.5, 0.0] + l, rtol=1e-15)
+    ens = liebody.Gyrostat(liebody.RigidBody(I), np.stack([l, 2 * l]))
+    te = liebody.integrate(ens, omega0=w0, dt=0.01, steps=10, method="splitting2")
+    np.testing.assert_allclose(te.omega[:, 0], [w0, w0], rtol=1e-13)
