@@ -19,7 +19,10 @@ output folder (``bench/results`` by default):
   nutation resonance, and Euler angles against quaternions near gimbal lock;
 * :mod:`bench.ensemble` — ns per body-step of ensembles against the number of bodies
   and threads: a loop over ``integrate()``, the scalar and the SIMD batch drivers,
-  MuJoCo's threaded ``rollout``, ``liebody.distributed`` on a Dask LocalCluster.
+  MuJoCo's threaded ``rollout``, ``liebody.distributed`` on a Dask LocalCluster;
+* :mod:`bench.basilisk` — gravity-gradient satellites (a tumble, a libration) in the
+  Basilisk astrodynamics framework and in liebody at equal accuracy (without Basilisk
+  installed, the liebody side only).
 
 :mod:`bench.core` runs them (command line, timing, files, charts, reports); each module
 fills in one :class:`bench.core.Benchmark`. :mod:`bench.problems` holds the shared
@@ -29,4 +32,5 @@ runs in fresh processes. This file imports nothing: ``python -m bench.child`` ti
 """
 
 #: the benchmark modules, in the order ``python -m bench`` runs them
-BENCHMARKS = ("step_cost", "work_precision", "long_horizon", "stability", "ensemble")
+BENCHMARKS = ("step_cost", "work_precision", "long_horizon", "stability", "ensemble",
+              "basilisk")

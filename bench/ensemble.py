@@ -1,9 +1,14 @@
 """Ensembles: ns per body-step against the number of bodies ``N`` and threads.
 
-Three cases: the free asymmetric body with ``splitting2`` (the headline), the Simo–Wong
-heavy top with ``splitting2``, and the free body with ``rattle``. ``N`` bodies start
-near the problem's state (random orientations for the free body, tilts of a few
-degrees for the top; momenta within 1e-3), and each path integrates them for ``steps``
+Four cases: the free asymmetric body with ``splitting2`` (the headline), the Simo–Wong
+heavy top with ``splitting2``, the free body with ``rattle``, and a gravity-gradient
+satellite with ``splitting2`` (:func:`gravity_gradient_problem`: ``I = (100, 120, 80)``
+with a per-body spread of up to 5 %, one Earth source on a circular orbit of 7000 km,
+tumbling at 0.5 rad/s; the axis splitting as the free flow, ``free_flow="axes"``, which
+the SIMD kernels run: with the default exact free flow an ensemble takes the scalar path).
+``N`` bodies start near the problem's state (random orientations for the free body and
+the satellite, tilts of a few degrees for the top; momenta within 1e-3), and each path
+integrates them for ``steps``
 steps (``N * steps`` is about ``body_steps``, at least ``min_steps``), keeping the final
 state only. For the batched paths two numbers are taken from each call: the
 **stepping** time, the wall time during which any batch driver was running (the path
@@ -44,7 +49,8 @@ taken: the round-off differences grow with the phase error): they time the same
 computation. Targets reported against (never asserted): free ``splitting2``
 at most 10 ns per body-step on one core (goal 7), i.e. at least 7x cheaper than the
 single-body path measured in the same run, at least 1.8x faster on 2 threads; heavy top
-``splitting2`` and free ``rattle`` at least 5x cheaper than their single-body paths.
+``splitting2`` and free ``rattle`` at least 5x cheaper than their single-body paths; the
+gravity-gradient satellite at most 10 ns per body-step on one core.
 
 Run ``python -m bench --only ensemble [--quick]``.
 """
@@ -60,18 +66,62 @@ import numpy as np
 
 import liebody
 from bench import core
-from bench.problems import problems
+from bench.problems import Problem, problems
 from liebody import quaternion
 
 #: (case key, problem key, method, step)
 CASES = (("free-splitting2", "asym", "splitting2", 0.05),
          ("top-splitting2", "top", "splitting2", 1e-3),
-         ("free-rattle", "asym", "rattle", 0.05))
+         ("free-rattle", "asym", "rattle", 0.05),
+         ("gg-splitting2", "gg", "splitting2", 0.5))
 #: the liebody paths, in the order run and drawn
 PATHS = ("integrate() loop", "batched scalar", "batched SIMD")
 MUJOCO = ("Euler", "RK4")
 TARGETS = {"free-splitting2": {"ns": 10.0, "goal_ns": 7.0, "ratio": 7.0, "threads2": 1.8},
-           "top-splitting2": {"ratio": 5.0}, "free-rattle": {"ratio": 5.0}}
+           "top-splitting2": {"ratio": 5.0}, "free-rattle": {"ratio": 5.0},
+           "gg-splitting2": {"ns": 10.0, "ratio": 5.0}}
+#: the gravity-gradient satellite: the Earth's mu [m^3/s^2], the orbit radius [m], the
+#: nominal moments [kg m^2] and their per-body spread (uniform, relative)
+GG_MU, GG_RADIUS, GG_MOMENTS, GG_SPREAD = 3.98600436e14, 7.0e6, (100.0, 120.0, 80.0), 0.05
+
+
+def gravity_gradient_scene(moments) -> liebody.GravityGradient:
+    """A satellite (``moments`` ``(3,)``, or ``(N, 3)`` for per-body inertia) under the
+    gravity gradient of the Earth on a circular orbit, the axis splitting as free flow."""
+    from liebody.orbits import Circular
+
+    moments = np.asarray(moments, dtype=float)
+    body = (liebody.RigidBody(moments) if moments.ndim == 1
+            else liebody.RigidBody.batch(moments))
+    n = np.sqrt(GG_MU / GG_RADIUS**3)
+    return liebody.GravityGradient(body, [(GG_MU, Circular(n, GG_RADIUS, phase=np.pi))],
+                                   free_flow="axes")
+
+
+def gravity_gradient_problem() -> Problem:
+    """The satellite of the ``gg-splitting2`` case, tumbling near its intermediate axis."""
+    moments = np.array(GG_MOMENTS)
+    return Problem(
+        key="gg", title="gravity-gradient satellite, I = (100, 120, 80) +- 5 %, LEO",
+        scene=gravity_gradient_scene(moments),
+        q0=quaternion.normalize(np.array([0.9, 0.1, -0.2, 0.3])),
+        L0=moments * np.array([0.5, 0.01, 0.02]), h_max=4.0, physical=False,
+        source="a tumbling satellite in a circular orbit of 7000 km",
+        extra={"per_body_moments": True})
+
+
+def problem_of(pkey: str) -> Problem:
+    return gravity_gradient_problem() if pkey == "gg" else problems()[pkey]
+
+
+def ensemble_scene(pb: Problem, n: int, seed: int):
+    """The scene of an ``n``-body ensemble: the problem's, or for the satellite one with
+    per-body moments (the nominal ones times ``1 + U(0, GG_SPREAD)``)."""
+    if not pb.extra.get("per_body_moments"):
+        return pb.scene
+    rng = np.random.default_rng(seed + 7 * n)
+    return gravity_gradient_scene(np.asarray(pb.moments)
+                                  * (1.0 + GG_SPREAD * rng.random((n, 3))))
 
 
 def settings(quick: bool) -> dict:
@@ -150,13 +200,13 @@ def _timed(runner, stepping: Stepping):
 def ensemble_state(pb, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """``n`` initial states near the problem's."""
     rng = np.random.default_rng(seed + n)
-    if pb.free:
+    if pb.free or pb.extra.get("per_body_moments"):
         q0 = quaternion.normalize(rng.normal(size=(n, 4)))
     else:
         tilt = np.c_[0.05 + 0.02 * rng.random(n), 0.02 * rng.normal(size=(n, 2))]
         q0 = quaternion.exp(tilt)
     L0 = pb.L0 * (1.0 + 1e-3 * rng.normal(size=(n, 3)))
-    if not pb.free:
+    if not pb.free and not pb.extra.get("per_body_moments"):
         L0[:, :2] = pb.L0[:2]
     return q0, L0
 
@@ -198,11 +248,12 @@ def time_batched(cfg: dict, pb, method: str, h: float, n: int, threads: int,
     """One ensemble ``integrate()`` call: ns per body-step of the stepping, of the whole
     call, the set-up per body, and the final states."""
     q0, L0 = ensemble_state(pb, n, cfg["seed"])
+    scene = ensemble_scene(pb, n, cfg["seed"])
     steps = steps_for(cfg, n)
     rec = Stepping()
 
     def call():
-        return liebody.integrate(pb.scene, q0=q0, L0=L0, dt=h, steps=steps, method=method,
+        return liebody.integrate(scene, q0=q0, L0=L0, dt=h, steps=steps, method=method,
                                  save_every=None, threads=threads,
                                  simd=path == "batched SIMD")
 
@@ -271,7 +322,7 @@ def distributed_rows(cfg: dict, case: tuple, progress) -> list[dict]:
     import liebody.distributed as dist
 
     key, pkey, method, h = case
-    pb = problems()[pkey]
+    pb = problem_of(pkey)
     rows = []
     sizes = sorted(cfg["n"])[-2:] if len(cfg["n"]) > 5 else sorted(cfg["n"])[-1:]
     for workers in (1, 2):
@@ -338,7 +389,7 @@ def run(cfg: dict, progress) -> dict:
     mujoco_done: dict[str, list[dict]] = {}
     for case in CASES:
         key, pkey, method, h = case
-        pb = problems()[pkey]
+        pb = problem_of(pkey)
         single = time_single(cfg, pb, method, h)
         agree = 0.0
         for n in progress(cfg["n"], desc=key):
@@ -351,7 +402,9 @@ def run(cfg: dict, progress) -> dict:
                     r, finals[path] = time_batched(cfg, pb, method, h, n, threads, path)
                     rows.append({"case": key, "path": path, "threads": threads, "n": n,
                                  "steps": steps, **r})
-                diff = float(np.abs(finals["batched SIMD"] - finals["batched scalar"]).max())
+                d = np.abs(finals["batched SIMD"] - finals["batched scalar"])
+                # q to its unit length, L relative to |L0| (a satellite's L is ~60)
+                diff = float(max(d[:, :4].max(), d[:, 4:].max() / np.linalg.norm(pb.L0)))
                 agree = max(agree, diff / steps)  # the phase error grows with the steps
         if have_mujoco and pb.physical:
             if pkey not in mujoco_done:
@@ -437,7 +490,9 @@ def _figures(key: str, case: dict, rows: list[dict], cfg: dict) -> dict:
     met = {"ratio": out["ratio_single_over_simd"] >= t["ratio"]}
     if "ns" in t:
         met["ns"] = simd1 <= t["ns"]
+    if "goal_ns" in t:
         met["goal_ns"] = simd1 <= t["goal_ns"]
+    if "threads2" in t:
         met["threads2"] = (out["simd_speedup_2_threads"] or 0.0) >= t["threads2"]
     out["targets"] = t
     out["met"] = met
@@ -542,10 +597,12 @@ def report(summary: dict) -> str:
         t, met = c["targets"], c["met"]
         words = [f"single/SIMD >= {t['ratio']:g}x: {'met' if met['ratio'] else 'NOT met'}"]
         if "ns" in t:
-            words += [f"<= {t['ns']:g} ns: {'met' if met['ns'] else 'NOT met'}",
-                      f"goal {t['goal_ns']:g} ns: {'met' if met['goal_ns'] else 'not met'}",
-                      f"2 threads >= {t['threads2']:g}x: "
-                      f"{'met' if met['threads2'] else 'NOT met'}"]
+            words.append(f"<= {t['ns']:g} ns: {'met' if met['ns'] else 'NOT met'}")
+        if "goal_ns" in t:
+            words.append(f"goal {t['goal_ns']:g} ns: {'met' if met['goal_ns'] else 'not met'}")
+        if "threads2" in t:
+            words.append(f"2 threads >= {t['threads2']:g}x: "
+                         f"{'met' if met['threads2'] else 'NOT met'}")
         lines.append("targets: " + "; ".join(words))
         big = c.get("largest_n")
         if big and big["n"] != c["n"]:
