@@ -22,7 +22,10 @@ output folder (``bench/results`` by default):
   MuJoCo's threaded ``rollout``, ``liebody.distributed`` on a Dask LocalCluster;
 * :mod:`bench.basilisk` — gravity-gradient satellites (a tumble, a libration) in the
   Basilisk astrodynamics framework and in liebody at equal accuracy (without Basilisk
-  installed, the liebody side only).
+  installed, the liebody side only);
+* :mod:`bench.coupled` — ns per body-step of a lattice of dipolar rotors
+  (:class:`liebody.DipoleLattice`) against ``N``, its free part alone, and the same
+  splitting written as a plain numba loop.
 
 :mod:`bench.core` runs them (command line, timing, files, charts, reports); each module
 fills in one :class:`bench.core.Benchmark`. :mod:`bench.problems` holds the shared
@@ -33,4 +36,4 @@ runs in fresh processes. This file imports nothing: ``python -m bench.child`` ti
 
 #: the benchmark modules, in the order ``python -m bench`` runs them
 BENCHMARKS = ("step_cost", "work_precision", "long_horizon", "stability", "ensemble",
-              "basilisk")
+              "basilisk", "coupled")

@@ -33,7 +33,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from liebody._validate import as_float_array, as_positive_float, as_unit_quaternion
-from liebody.errors import IntegrationInterrupted, InvariantWarning, TorqueError
+from liebody.errors import (
+    ConvergenceError,
+    IntegrationInterrupted,
+    InvariantWarning,
+    TorqueError,
+)
 from liebody.rigid_body import RigidBody
 from liebody.trajectory import Trajectory
 
@@ -104,7 +109,8 @@ class CoupledBodies:
     -----
     Integrate with :func:`liebody.integrate` (``q0`` ``(N, 4)`` or one for all, ``L0`` /
     ``omega0`` ``(N, 3)``; methods ``splitting2`` (default), ``no_squish``,
-    ``splitting4/6/8`` and ``exact`` (the exact free flow between kicks)), or step by
+    ``splitting4/6/8``, ``exact`` (the exact free flow between kicks) and ``rattle`` (the
+    discrete Moser–Veselov free step between kicks)), or step by
     step with :class:`liebody.Stepper`. The collective torque is called once per kick
     (once per step for ``splitting2``, whose end kicks merge), the free flows cost what
     they cost in an ensemble. See the module :mod:`liebody.coupled` for the angular
@@ -425,7 +431,7 @@ def _tables(scene, method, m0, h):
     from liebody._kernels import stages as S
     from liebody._kernels.coupled import BLOCK, NOOP, ROWS  # noqa: F401
 
-    allowed = {S.AXIS, S.AXIS_RECURRING, S.SPHERE, S.EXACT}
+    allowed = {S.AXIS, S.AXIS_RECURRING, S.SPHERE, S.EXACT, S.DMV}
     try:
         groups = method.plans(_proxy(scene.moments), m0, h)
     except ValueError as exc:
@@ -586,6 +592,7 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     """:func:`liebody.integrate` for :class:`CoupledBodies` (after the shared checks)."""
     from liebody import _methods
     from liebody._engine import interrupt_after_call, time_slices
+    from liebody._kernels import stages as S
 
     method = _methods.get(scene.default_method if method is None else method)
     q, m = _initial(scene, q0, L0, omega0)
@@ -614,6 +621,15 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
             f"{method.name}: interrupted after {done:,} of {n_steps:,} steps; the "
             f"{1 + saved:,} samples so far are on this exception's .trajectory", traj, done,
             t0 + done * dt) from None
+    if status == S.STATUS_NO_CONVERGENCE:
+        tf = t0 + done * dt
+        traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
+                           m_out[:, :1 + saved].copy(), "failed", tf + dt)
+        raise ConvergenceError(
+            f"{method.name}: the implicit DMV (RATTLE) equation of body {body} has no "
+            f"solution in step {done + 1:,} (t = {tf:.6g}); reduce dt (h |omega| must stay "
+            f"below about 1); the {1 + saved:,} samples before it are on this exception's "
+            f".trajectory", traj, done, tf)
     if status != 0:
         tf = t0 + done * dt
         traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
@@ -741,6 +757,12 @@ class CoupledStepper:
             _, _, status, body = self._run.run(self._t0, self._k, 1, 1, True, self._q1,
                                                self._m1, 0)
             if status != 0:
-                raise TorqueError(f"{self._method.name}: the coupled torque was not finite "
-                                  f"for body {body} at t = {self.t:.6g}", None, 0, self.t)
+                from liebody._kernels.stages import STATUS_NO_CONVERGENCE
+
+                dmv = status == STATUS_NO_CONVERGENCE
+                what = ("the implicit DMV equation was not solved" if dmv else
+                        "the coupled torque was not finite")
+                error = ConvergenceError if dmv else TorqueError
+                raise error(f"{self._method.name}: {what} for body {body} at t = "
+                            f"{self.t:.6g}", None, 0, self.t)
             self._k += 1

@@ -225,6 +225,17 @@ def test_ensemble_times_every_path_and_the_paths_agree(quick):
 # ------------------------------------------------------------------------- fast tests
 
 
+@pytest.mark.long
+def test_coupled_times_the_paths_and_they_agree(quick):
+    """The coupled benchmark times liebody, its free part and the plain numba loop, and the
+    loop computes liebody's map (the same splitting written by hand)."""
+    out, _ = quick
+    rows = _json(out / "coupled.json")["rows"]
+    assert rows and all(r["liebody_ns"] > 0 and r["plain_ns"] > 0 and r["free_part_ns"] > 0
+                        for r in rows)
+    assert all(r["agreement"] < 1e-9 for r in rows)
+
+
 def test_ensemble_recording_times_the_drivers_and_restores_them():
     """bench.ensemble.recording wraps every batch driver for one call only; integrate's
     own switch chooses the scalar or the SIMD driver."""

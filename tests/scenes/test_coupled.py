@@ -90,7 +90,8 @@ def _reference(scene, q0, L0, T):
 
 @pytest.mark.parametrize(("method", "order", "steps"), [
     ("splitting2", 2, (50, 100, 200)), ("no_squish", 2, (50, 100, 200)),
-    ("exact", 2, (50, 100, 200)), ("splitting4", 4, (25, 50, 100)),
+    ("exact", 2, (50, 100, 200)), ("rattle", 2, (50, 100, 200)),
+    ("splitting4", 4, (25, 50, 100)),
     ("splitting6", 6, (8, 16, 32))])
 def test_the_coupled_splittings_have_their_order(method, order, steps):
     scene, q0, L0 = _system()
@@ -296,8 +297,8 @@ def test_bad_input_is_named():
 
     with pytest.raises(liebody.TorqueError, match=r"torque.t, q, L, params, out."):
         liebody.integrate(CoupledBodies(body, wrong), q0=q0, L0=L0, dt=0.1, steps=2)
-    with pytest.raises(ValueError, match="rattle does not run coupled bodies"):
-        liebody.integrate(scene, q0=q0, L0=L0, dt=0.1, steps=2, method="rattle")
+    with pytest.raises(ValueError, match="rk4 does not run coupled bodies"):
+        liebody.integrate(scene, q0=q0, L0=L0, dt=0.1, steps=2, method="rk4")
     with pytest.raises(ValueError, match="sites must be distinct: sites 0 and 1"):
         DipoleLattice(body, [[0, 0, 0], [0, 0, 0], [1, 0, 0]], [0, 0, 1])
     with pytest.raises(ValueError, match=r"sites must have shape \(N, 3\)"):

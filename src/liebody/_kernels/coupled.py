@@ -45,11 +45,14 @@ from liebody._kernels.batch import (
     _project_block,
 )
 from liebody._kernels.exact import exact_flow
+from liebody._kernels.flows import dmv_step
 from liebody._kernels.stages import (
     AXIS,
     AXIS_RECURRING,
+    DMV,
     EXACT,
     SPHERE,
+    STATUS_NO_CONVERGENCE,
     STATUS_OK,
     STATUS_TORQUE,
 )
@@ -176,7 +179,9 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
 @jit
 def _rotate(buf, kind, axis, rate, nb, tau, moments, idx, fast):
     """One free-flow stage of a block: the SIMD kernels, without range reduction where
-    ``fast`` (every half angle below ``batch.FAST_LIMIT``), the exact flow body by body."""
+    ``fast`` (every half angle below ``batch.FAST_LIMIT``); the exact flow and the discrete
+    Moser-Veselov step (RATTLE's free part) body by body. Returns the first body whose
+    implicit DMV equation was not solved, -1 for none."""
     if kind == AXIS:
         if fast:
             if axis == 0:
@@ -220,6 +225,17 @@ def _rotate(buf, kind, axis, rate, nb, tau, moments, idx, fast):
                            buf[M30 + i], tau)
             buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i] = r[0], r[1], r[2], r[3]
             buf[M10 + i], buf[M20 + i], buf[M30 + i] = r[4], r[5], r[6]
+    elif kind == DMV:
+        for i in range(nb):
+            k = idx[i]
+            r = dmv_step(buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i], buf[M10 + i],
+                         buf[M20 + i], buf[M30 + i], moments[k, 0], moments[k, 1],
+                         moments[k, 2], tau)
+            if r[7] < 0:
+                return k
+            buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i] = r[0], r[1], r[2], r[3]
+            buf[M10 + i], buf[M20 + i], buf[M30 + i] = r[4], r[5], r[6]
+    return -1
 
 
 @jit
@@ -255,9 +271,10 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
     ``params`` ``(N, k)``; ``addr`` the torque callback. Saved samples go to rows
     ``row0, row0 + 1, ...`` of ``q_out`` / ``m_out``.
 
-    Returns ``(steps_done, n_saved, status, body)``: at a torque that is not finite the
-    run stops in that step (``STATUS_TORQUE``, ``body`` the first such body; the saved
-    samples before it are good).
+    Returns ``(steps_done, n_saved, status, body)``: at a torque that is not finite
+    (``STATUS_TORQUE``) or a DMV equation not solved (``STATUS_NO_CONVERGENCE``) the run
+    stops in that step, ``body`` the first such body (the saved samples before it are
+    good).
     """
     S = kc.shape[0] - 1
     R = rk.shape[2]
@@ -287,8 +304,11 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
                             break
                         tau = rc[g, s, r] * h
                         half = 0.5 * abs(tau) * rmax[b, s, r] * lmax[b]
-                        _rotate(bufs[b], kind, ra[g, s, r], rates[b, s, r], blk_n[b], tau,
-                                moments, blk_idx[b], half * (1.0 + 1e-6) <= FAST_LIMIT)
+                        bad = _rotate(bufs[b], kind, ra[g, s, r], rates[b, s, r], blk_n[b],
+                                      tau, moments, blk_idx[b],
+                                      half * (1.0 + 1e-6) <= FAST_LIMIT)
+                        if bad >= 0:
+                            return step, n_saved, STATUS_NO_CONVERGENCE, bad
         pending = merge
         if save_now:
             until_save = save_every

@@ -50,15 +50,11 @@ def _field(params, mu, i, j):
     return (a * r1 - mu[j, 0]) * inv3, (a * r2 - mu[j, 1]) * inv3, (a * r3 - mu[j, 2]) * inv3
 
 
-@jit(parallel=True)
-def torque(t, q, L, params, out):
-    """Every body's body-frame torque (the coupled-bodies interface), the bodies spread
-    over numba's threads (``numba.set_num_threads``); each body's sum in a fixed order,
-    so the numbers do not depend on the thread count."""
+@jit
+def _torque_rows(q, params, mu, out, lo, hi):
+    """The torques of bodies ``lo .. hi - 1`` (the field summed in a fixed order)."""
     n = q.shape[0]
-    mu = np.empty((n, 3))
-    _space_dipoles(q, params, mu)
-    for i in prange(n):
+    for i in range(lo, hi):
         b1 = b2 = b3 = 0.0
         count = int(params[i, HEAD - 1])
         if count < 0:
@@ -81,6 +77,28 @@ def torque(t, q, L, params, out):
         out[i, 0] = d2 * c3 - d3 * c2
         out[i, 1] = d3 * c1 - d1 * c3
         out[i, 2] = d1 * c2 - d2 * c1
+
+
+#: bodies per thread's chunk of the torque (fewer pairs than this: one thread, the
+#: start of a parallel region costing more than the work)
+CHUNK = 256
+
+
+@jit(parallel=True)
+def torque(t, q, L, params, out):
+    """Every body's body-frame torque (the coupled-bodies interface): in chunks of
+    :data:`CHUNK` bodies over numba's threads (``numba.set_num_threads``) when there are
+    several chunks, each body's sum in a fixed order, so the numbers do not depend on the
+    thread count."""
+    n = q.shape[0]
+    mu = np.empty((n, 3))
+    _space_dipoles(q, params, mu)
+    chunks = (n + CHUNK - 1) // CHUNK
+    if chunks <= 1:
+        _torque_rows(q, params, mu, out, 0, n)
+        return
+    for c in prange(chunks):
+        _torque_rows(q, params, mu, out, c * CHUNK, min(n, (c + 1) * CHUNK))
 
 
 @jit
