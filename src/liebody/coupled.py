@@ -491,16 +491,16 @@ class _Coupled:
         self.blk_group = np.array([b[0] for b in blocks], dtype=np.int64)
         self.blk_idx = np.zeros((B, BLOCK), dtype=np.int64)
         self.blk_n = np.zeros(B, dtype=np.int64)
-        self.rates = np.zeros((B, Sn, R, BLOCK))
+        self.rates = np.zeros((B, Sn, R, 1, BLOCK))  # (a stage's rows: rates in row 0)
         for b, (g, idx, plan, a) in enumerate(blocks):
             self.blk_idx[b, :len(idx)] = idx
             self.blk_n[b] = len(idx)
             rows = plan.params if plan.params.shape[0] == 1 else plan.params[a:a + len(idx)]
             for s, seg in enumerate(segs_all[g][2]):
                 for r, j in enumerate(seg):
-                    self.rates[b, s, r, :len(idx)] = rows[:, j, S.P_RATE]
+                    self.rates[b, s, r, 0, :len(idx)] = rows[:, j, S.P_RATE]
         self.rk, self.ra, self.rc = rk, ra, rc
-        self.rmax = np.abs(self.rates).max(axis=-1)
+        self.rmax = np.abs(self.rates).max(axis=(-2, -1))
         self.lmax = np.zeros(B)
         self.bufs = np.zeros((B, ROWS * BLOCK))
         self.moments = np.ascontiguousarray(scene.moments)

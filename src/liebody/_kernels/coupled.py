@@ -19,39 +19,26 @@ from numba import config, types
 
 from liebody._kernels._jit import jit
 from liebody._kernels.batch import (
-    _AX0F,
-    _AX0G,
-    _AX1F,
-    _AX1G,
-    _AX2F,
-    _AX2G,
-    _RC0F,
-    _RC0G,
-    _RC1F,
-    _RC1G,
-    _RC2F,
-    _RC2G,
-    _SPHERE_FAST,
-    _SPHERE_GENERAL,
     BLOCK,
+    FAST,
     FAST_LIMIT,
     M10,
     M20,
     M30,
+    PROJECT,
     W0,
     X0,
     Y0,
     Z0,
-    _project_block,
+    _apply,
 )
 from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import dmv_step
 from liebody._kernels.stages import (
     AXIS,
-    AXIS_RECURRING,
     DMV,
     EXACT,
-    SPHERE,
+    F_ROTATIONS,
     STATUS_NO_CONVERGENCE,
     STATUS_OK,
     STATUS_TORQUE,
@@ -177,47 +164,13 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
 
 
 @jit
-def _rotate(buf, kind, axis, rate, nb, tau, moments, idx, fast):
-    """One free-flow stage of a block: the SIMD kernels, without range reduction where
-    ``fast`` (every half angle below ``batch.FAST_LIMIT``); the exact flow and the discrete
-    Moser-Veselov step (RATTLE's free part) body by body. Returns the first body whose
-    implicit DMV equation was not solved, -1 for none."""
-    if kind == AXIS:
-        if fast:
-            if axis == 0:
-                _AX0F(buf, rate, nb, tau)
-            elif axis == 1:
-                _AX1F(buf, rate, nb, tau)
-            else:
-                _AX2F(buf, rate, nb, tau)
-        elif axis == 0:
-            _AX0G(buf, rate, nb, tau)
-        elif axis == 1:
-            _AX1G(buf, rate, nb, tau)
-        else:
-            _AX2G(buf, rate, nb, tau)
-    elif kind == AXIS_RECURRING:
-        if fast:
-            if axis == 0:
-                _RC0F(buf, rate, nb, tau)
-            elif axis == 1:
-                _RC1F(buf, rate, nb, tau)
-            else:
-                _RC2F(buf, rate, nb, tau)
-        elif axis == 0:
-            _RC0G(buf, rate, nb, tau)
-        elif axis == 1:
-            _RC1G(buf, rate, nb, tau)
-        else:
-            _RC2G(buf, rate, nb, tau)
-        _project_block(buf, nb, False, axis, rate, tau)
-    elif kind == SPHERE:
-        if fast:
-            _SPHERE_FAST(buf, rate, nb, tau)
-        else:
-            _SPHERE_GENERAL(buf, rate, nb, tau)
-        _project_block(buf, nb, True, axis, rate, tau)
-    elif kind == EXACT:
+def _rotate(buf, kind, axis, p, nb, tau, moments, idx, fast):
+    """One free-flow stage of a block: the rotations through the SIMD ensembles' stage
+    (``batch._apply``; ``p[0]`` the rates, without range reduction where ``fast``: every
+    half angle below ``batch.FAST_LIMIT``); the exact flow and the discrete Moser-Veselov
+    step (RATTLE's free part) body by body. Returns the first body whose implicit DMV
+    equation was not solved, -1 for none."""
+    if kind == EXACT:
         for i in range(nb):
             k = idx[i]
             r = exact_flow(moments[k, 0], moments[k, 1], moments[k, 2], buf[W0 + i],
@@ -235,6 +188,9 @@ def _rotate(buf, kind, axis, rate, nb, tau, moments, idx, fast):
                 return k
             buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i] = r[0], r[1], r[2], r[3]
             buf[M10 + i], buf[M20 + i], buf[M30 + i] = r[4], r[5], r[6]
+    else:  # a recurring rotation puts q back on the unit sphere after a large turn
+        flags = (FAST if fast else 0) | (0 if kind == AXIS else PROJECT)
+        _apply(F_ROTATIONS, kind, axis, flags, buf, p, nb, tau)
     return -1
 
 
@@ -261,7 +217,7 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
     it (fractions of ``h``); ``rk``, ``ra``, ``rc`` ``(G, S, R)``: each group's free-flow
     stages of segment ``s`` (kind or :data:`NOOP`, axis, fraction of the step);
     ``blk_group`` ``(B,)``, ``blk_idx`` ``(B, BLOCK)``, ``blk_n`` ``(B,)``: each block's
-    group, bodies and count; ``rates`` ``(B, S, R, BLOCK)``: each stage's rate per body,
+    group, bodies and count; ``rates`` ``(B, S, R, 1, BLOCK)``: each stage's rate per body,
     ``rmax`` ``(B, S, R)`` its largest ``|rate|`` over the block; ``lmax`` ``(B,)``: work
     (each block's largest ``|L|``, set by every kick; start it with the initial one);
     ``moments`` ``(N, 3)`` (the exact flow); ``bufs`` ``(B, ROWS * BLOCK)``: the state
