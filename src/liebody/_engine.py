@@ -482,6 +482,12 @@ def torque_failure(model, state, t, u=None, i: int = 0):
     A scene's own torque model (no Python function: uniform gravity, gravity gradient)
     that the kernel found non-finite is described as such."""
     if model.function is None:
+        span = getattr(model, "span", None)
+        if span is not None and not span[0] <= t <= span[1]:
+            return None, (f"the time t = {t:.10g} is outside the times [{span[0]:.10g}, "
+                          f"{span[1]:.10g}] that the scene's sampled orbits "
+                          f"(liebody.orbits.Table) cover: the sources' positions are not "
+                          f"known there (extend the tables or shorten the run)")
         return None, (f"the scene's torque model (code {model.code}) gave non-finite values "
                       f"(its parameters overflow float64 at this state)")
     sig = model.signature
@@ -497,11 +503,21 @@ def torque_failure(model, state, t, u=None, i: int = 0):
     return None, None
 
 
+def _failure_times(model, t0: float, dt: float) -> list[float]:
+    """The step's clock values at which to ask why the torque failed: a time outside the
+    model's data (a sampled orbit's span) first, where there is one."""
+    times = [t0, t0 + 0.5 * dt, t0 + dt]
+    span = getattr(model, "span", None)
+    if span is not None:
+        times.sort(key=lambda t: span[0] <= t <= span[1])
+    return times
+
+
 def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0):
     """Call the user's torque at the last good state (at the step's clock values
     ``t0``, ``t0 + dt/2``, ``t0 + dt``) to raise its own error, chained; ``traj`` (or
     ``None``) goes on the error."""
-    for t in (t0, t0 + 0.5 * dt, t0 + dt):
+    for t in _failure_times(model, t0, dt):
         exc, words = torque_failure(model, state, t, u, i)
         if words is not None:
             raise TorqueError(f"{name}: {words} {where}", traj, step, t0) from exc
@@ -512,7 +528,7 @@ def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i:
 
 def torque_failure_words(model, state, t0, dt, u=None, i: int = 0) -> str:
     """Why body ``i``'s torque failed in the step from ``t0`` (for an ensemble's warning)."""
-    for t in (t0, t0 + 0.5 * dt, t0 + dt):
+    for t in _failure_times(model, t0, dt):
         words = torque_failure(model, state, t, u, i)[1]
         if words is not None:
             return f"{words} at t = {t:.6g}"

@@ -175,6 +175,8 @@ class TorqueModel:
     #: the potential depends on the time: the energy is not conserved (a Hamiltonian of
     #: its own, the Jacobi integral, may be), and the energy diagnostics are NaN
     time_dependent: bool = False
+    #: the times at which the model's data are known (sampled orbits), ``None`` for all
+    span: tuple | None = None
 
     @classmethod
     def none(cls) -> TorqueModel:
@@ -187,10 +189,10 @@ class TorqueModel:
         return cls(TORQUE_GRAVITY, _block(weight_arm))
 
     @classmethod
-    def gravity_gradient(cls, blocks) -> TorqueModel:
+    def gravity_gradient(cls, blocks, span=None) -> TorqueModel:
         """Point masses on orbits (:class:`GravityGradient`): ``blocks`` as laid out by
-        ``liebody._models.gravity_gradient``."""
-        return cls(TORQUE_GRAVITY_GRADIENT, _block(blocks), time_dependent=True)
+        ``liebody._models.gravity_gradient``; ``span`` the times the sampled orbits cover."""
+        return cls(TORQUE_GRAVITY_GRADIENT, _block(blocks), time_dependent=True, span=span)
 
     @classmethod
     def user(cls, torque, controls: int = 0, params=None) -> TorqueModel:
@@ -717,7 +719,8 @@ class GravityGradient(Scene):
 
     def torque_model(self) -> TorqueModel:
         return _memo(self, "torque_model", lambda: TorqueModel.gravity_gradient(
-            self._blocks()))
+            self._blocks(), None if self.time_span == (-math.inf, math.inf)
+            else self.time_span))
 
     @property
     def time_span(self) -> tuple[float, float]:
