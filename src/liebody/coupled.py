@@ -86,8 +86,8 @@ class CoupledBodies:
     Parameters
     ----------
     bodies
-        The bodies: a :meth:`RigidBody.batch` of ``N`` or a sequence of ``N``
-        :class:`RigidBody` (principal frames; the centres are fixed).
+        The bodies: a :meth:`liebody.RigidBody.batch` of ``N`` or a sequence of ``N``
+        :class:`liebody.RigidBody` (principal frames; the centres are fixed).
     torque
         A numba-compiled function ``torque(t, q, L, params, out)`` that writes every
         body's torque, in its own body frame, into ``out`` ``(N, 3)``, from the
@@ -238,15 +238,15 @@ class DipoleLattice(CoupledBodies):
     Parameters
     ----------
     bodies
-        ``N`` bodies (a :meth:`RigidBody.batch` or a sequence).
+        ``N`` bodies (a :meth:`liebody.RigidBody.batch` or a sequence).
     sites : (N, 3) array
         The fixed positions of the bodies' centres (no two closer than 1e-9 of their
         spread).
     dipoles : (N, 3) or (3,) array
         Each body's dipole moment in its body frame.
     cutoff : float, optional
-        Pairs farther apart are left out (a neighbour list, :func:`neighbours`); ``None``:
-        every pair (``O(N^2)`` per kick).
+        Pairs farther apart are left out (a neighbour list,
+        :func:`liebody.coupled.neighbours`); ``None``: every pair (``O(N^2)`` per kick).
 
     Notes
     -----

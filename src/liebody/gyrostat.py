@@ -38,7 +38,7 @@ class Gyrostat(Scene):
     ----------
     body
         The body, its inertia that of body and rotors together (the rotors' axial inertia
-        included), about the centre of mass; :meth:`RigidBody.batch` makes an ensemble.
+        included), about the centre of mass; :meth:`liebody.RigidBody.batch` makes an ensemble.
     rotor_momentum
         ``l``, the rotors' angular momentum relative to the body, in the body frame:
         ``(3,)``, or ``(N, 3)`` one per body (finite).

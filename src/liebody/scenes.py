@@ -297,7 +297,7 @@ class Scene:
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """``()`` for one body; ``(N,)`` when the scene's parameters describe ``N`` bodies
-        (a :meth:`RigidBody.batch`, or per-body parameters of a torqued scene)."""
+        (a :meth:`liebody.RigidBody.batch`, or per-body parameters of a torqued scene)."""
         return self.body.shape
 
     @property
@@ -643,7 +643,7 @@ class GravityGradient(Scene):
     Parameters
     ----------
     body
-        The body (its inertia about the centre of mass); a :meth:`RigidBody.batch` makes an
+        The body (its inertia about the centre of mass); a :meth:`liebody.RigidBody.batch` makes an
         ensemble with per-body inertia.
     sources
         A sequence of ``(GM, orbit)`` pairs (``GM > 0``), the orbits

@@ -137,7 +137,7 @@ class ReactionWheels(Scene):
         The spacecraft's inertia **without the wheels' axial inertia**,
         ``I = I_total - sum_k J_k g_k g_k^T`` about the centre of mass, which must be
         diagonal in the body frame (its principal moments; the wheels' transverse inertia is
-        part of it). :meth:`RigidBody.batch` makes an ensemble (per-body inertia).
+        part of it). :meth:`liebody.RigidBody.batch` makes an ensemble (per-body inertia).
     axes
         The wheels' spin axes ``g_k`` in the body (principal) frame, one unit vector per
         row, ``(n, 3)`` (a ``(3,)`` vector: one wheel). Refused: an axis that is not a unit
