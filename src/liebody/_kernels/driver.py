@@ -35,7 +35,9 @@ from __future__ import annotations
 
 import math
 
-from liebody._kernels._jit import jit
+from numba.extending import overload
+
+from liebody._kernels._jit import jit, overload_options
 from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import (
     axis_flow,
@@ -184,6 +186,26 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     return w, x, y, z, m1, m2, m3, STATUS_KICK_NO_CONVERGENCE
 
 
+def kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+    """:func:`_kick`, compiled with its implicit (Newton) half only where the run's model
+    (the token ``model``) may depend on the momentum; for the others (uniform gravity, the
+    gravity gradient: explicit kicks only) an implicit kick is ``STATUS_BAD_STAGE``."""
+    return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+
+
+@overload(kick, jit_options=overload_options())
+def _kick_of(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+    if dispatch.momentum_dependent(model):
+        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+            return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    else:
+        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+            if kind != KICK:
+                return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
+            return _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    return impl
+
+
 @jit
 def _dmv(p, tau, w, x, y, z, m1, m2, m3):
     r = dmv_step(w, x, y, z, m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], tau)
@@ -207,7 +229,7 @@ def _damp(p, tau, w, x, y, z, m1, m2, m3):
 def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     """The splittings' stages other than rotations: kicks and dissipation."""
     if kind == KICK or kind == KICK_IMPLICIT:
-        return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+        return kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     if kind == DAMP:
         return _damp(p, tau, w, x, y, z, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
@@ -345,7 +367,7 @@ def _runner(family: int, diag: bool = False):
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
                             params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                     elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
-                        w, x, y, z, m1, m2, m3, status = _kick(
+                        w, x, y, z, m1, m2, m3, status = kick(
                             kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                     elif family == F_SPLITTING and kind == DAMP:
                         w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
@@ -378,7 +400,7 @@ def _runner(family: int, diag: bool = False):
                         w, x, y, z, m1, m2, m3, status = _dmv(params[j], tau, w, x, y, z, m1,
                                                               m2, m3)
                     else:
-                        w, x, y, z, m1, m2, m3, status = _kick(
+                        w, x, y, z, m1, m2, m3, status = kick(
                             kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
                 elif family == F_EXACT:
                     if kind == EXACT:

@@ -25,6 +25,18 @@ def token(code: int) -> tuple:
     return (0,) * (code + 2)
 
 
+def momentum_dependent(model) -> bool:
+    """Whether the model of a token's numba type (:func:`token`) may have a torque that
+    depends on the momentum (so that the drivers need the implicit kick): the model's
+    ``MOMENTUM``; true for :data:`ANY`, false without a model."""
+    c = _token_code(model)
+    if c == ANY:
+        return True
+    return {TORQUE_NONE: False, uniform_gravity.CODE: uniform_gravity.MOMENTUM,
+            gravity_gradient.CODE: gravity_gradient.MOMENTUM,
+            user_torque.CODE: user_torque.MOMENTUM}[c]
+
+
 def _token_code(tok) -> int:
     """The model code a token's numba type stands for (:data:`ANY` for anything else, such
     as an omitted argument)."""

@@ -27,6 +27,8 @@ from liebody._kernels.stages import TORQUE_GRAVITY_GRADIENT
 from liebody._models import orbit
 
 CODE = TORQUE_GRAVITY_GRADIENT
+#: whether the torque may depend on the momentum (no: the orientation and time only)
+MOMENTUM = False
 HEAD = 4  # I1, I2, I3, K
 
 

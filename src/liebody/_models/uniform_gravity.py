@@ -14,6 +14,8 @@ from liebody._kernels._jit import jit
 from liebody._kernels.stages import TORQUE_GRAVITY
 
 CODE = TORQUE_GRAVITY
+#: whether the torque may depend on the momentum (no: the orientation only)
+MOMENTUM = False
 #: width of the parameter block
 WIDTH = 3
 

@@ -21,6 +21,8 @@ from liebody._kernels._jit import jit
 from liebody._kernels.stages import N_CONTROLS, P_U0, TORQUE_USER
 
 CODE = TORQUE_USER
+#: whether the torque may depend on the momentum (a user's may: implicit kicks)
+MOMENTUM = True
 
 TORQUE_SIG = types.UniTuple(types.float64, 3)(
     *([types.float64] * (8 + N_CONTROLS)), types.CPointer(types.float64), types.intp)
