@@ -70,8 +70,11 @@ class Bodies:
     moving_rotor: bool = False
     #: what ``free_flow="auto"`` means for the scene's asymmetric rigid bodies (its
     #: ``auto_free_flow``): ``"axes"``, the axis splitting (or SR2 in the compositions),
-    #: or ``"exact"``, the elliptic exact flow (:attr:`drift_flow`)
+    #: or ``"exact"``, the elliptic exact flow for fast rotators (:attr:`exact_drift`)
     auto_flow: str = "axes"
+    #: the fastest angular rate of the scene's sources about the bodies (its
+    #: ``orbit_rate``; 0 where unknown): the time scale :attr:`exact_drift` compares with
+    orbit_rate: float = 0.0
     #: set once a recipe has read the initial momenta (shared with the bodies taken)
     orbit_read: list = field(default_factory=lambda: [False], repr=False, compare=False)
 
@@ -105,7 +108,8 @@ class Bodies:
                    np.ascontiguousarray(np.broadcast_to(eps, n).reshape(size)), rows(rotor, 3),
                    scene.capabilities, scene.free_flow, model.code,
                    bool(getattr(scene, "moving_rotor", False)),
-                   auto_flow=getattr(scene, "auto_free_flow", "axes"))
+                   auto_flow=getattr(scene, "auto_free_flow", "axes"),
+                   orbit_rate=float(getattr(scene, "orbit_rate", 0.0)))
 
     def __len__(self) -> int:
         return self.moments.shape[0]
@@ -130,13 +134,24 @@ class Bodies:
         return self.moving_rotor or bool(np.any(self.rotor != 0.0))
 
     @property
-    def drift_flow(self) -> str:
-        """The scene's ``free_flow`` with ``"auto"`` resolved where the scene says so:
-        ``"exact"`` when its ``auto_free_flow`` is the exact flow and the bodies are
-        rigid (a gyrostat keeps the axis splitting), else ``free_flow`` as given."""
-        if self.free_flow == "auto" and self.auto_flow == "exact" and not self.has_rotor:
-            return "exact"
-        return self.free_flow
+    def exact_drift(self) -> np.ndarray:
+        """Per body, whether its drift between kicks is the elliptic exact flow: asked for
+        (``free_flow="exact"``), or ``"auto"`` on a scene whose ``auto_free_flow`` is the
+        exact flow, for a rigid *fast rotator*: ``|omega| >= FAST_ROTATOR`` times the
+        scene's ``orbit_rate``, where the exact drift wins the work-precision chart (a
+        spacecraft tumbling in its orbit). A body turning about as slowly as its sources
+        (a satellite resting in its orbital frame) keeps the axis splitting, cheaper there
+        per error and run on the SIMD kernels in an ensemble. Each body's choice is its
+        own, so an ensemble's bodies get their one-body calls' plans."""
+        n = len(self)
+        if self.free_flow == "exact":
+            return np.ones(n, dtype=bool)
+        if self.free_flow != "auto" or self.auto_flow != "exact" or self.has_rotor:
+            return np.zeros(n, dtype=bool)
+        if not self.orbit_rate > 0.0:
+            return np.ones(n, dtype=bool)
+        spin = np.sqrt(np.sum((self.m0 / self.moments) ** 2, axis=1))
+        return spin >= FAST_ROTATOR * self.orbit_rate
 
     def require_rigid(self, what: str) -> None:
         """Refuse a flow that is the rigid body's for a gyrostat, naming it and the way."""
@@ -453,6 +468,13 @@ def exact_stage(b: Bodies) -> Stage:
     return Stage(S.EXACT, 1.0, 1.0, moments=b.moments)
 
 
+#: a body spinning this many times faster than its scene's sources turn about it is a fast
+#: rotator: ``free_flow="auto"`` gives it the exact drift where the scene asks for that
+#: (:attr:`Bodies.exact_drift`); the work-precision chart of a satellite
+#: (``bench/work_precision.py --satellite``) has the exact drift winning at a spin 440
+#: times the orbit's rate and losing 2.5-5x at about the orbit's rate
+FAST_ROTATOR = 10.0
+
 # choices of the drift between kicks (scene_free_flow)
 _DRIFT_SYMMETRIC, _DRIFT_EXACT, _DRIFT_AXES = 0, 1, 2
 
@@ -460,9 +482,10 @@ _DRIFT_SYMMETRIC, _DRIFT_EXACT, _DRIFT_AXES = 0, 1, 2
 def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
     """Per body, the drift a splitting uses between kicks: see :func:`drift_stages`."""
     sym = b.symmetry
-    flow = b.drift_flow
+    flow = b.free_flow
     use_sym = (sym != ASYMMETRIC) & ((flow != "axes") | (sym == SPHERICAL))
-    choice = np.where(use_sym, _DRIFT_SYMMETRIC, _DRIFT_EXACT if flow == "exact" else _DRIFT_AXES)
+    choice = np.where(use_sym, _DRIFT_SYMMETRIC,
+                      np.where(b.exact_drift, _DRIFT_EXACT, _DRIFT_AXES))
     if not np.any(choice == _DRIFT_AXES):
         order = np.zeros(len(b), dtype=np.int64)  # no body's drift needs an ordering
     elif ordering is None:
@@ -480,8 +503,8 @@ def drift_stages(b: Bodies, key: int) -> tuple[list[Stage], dict]:
     the scene asks for ``free_flow="axes"``; otherwise ``free_flow="exact"`` gives the
     elliptic exact flow and ``"auto"``/``"axes"`` the 5-rotation axis splitting (the
     ordering given, or the best for the orbit of ``m0``), except that ``"auto"`` is the
-    exact flow on scenes whose ``auto_free_flow`` says so (:attr:`Bodies.drift_flow`:
-    :class:`~liebody.GravityGradient`, a fast rotator under a weak torque).
+    exact flow for the fast rotators of scenes whose ``auto_free_flow`` says so
+    (:attr:`Bodies.exact_drift`: :class:`~liebody.GravityGradient`).
     """
     choice, sym1, order = split(key, 3)
     sym = sym1 - 1
@@ -681,10 +704,13 @@ class BestSplitting(FreeFlowRecipe):
     def drift_keys(self, b, h):
         keys = drift_keys(b)
         asym = b.symmetry == ASYMMETRIC
-        if b.drift_flow != "auto" or b.has_rotor or not asym.any():
+        if b.free_flow != "auto" or b.has_rotor or not asym.any():
             return keys  # (a symmetric body's drift reads no orbit: its plan is shared)
+        axes = asym & ~b.exact_drift  # (a fast rotator's drift is the exact flow)
+        if not axes.any():
+            return keys
         free = self.free_keys(b, h)  # combine(use_sr2, symmetry + 1, ordering)
-        sr2 = asym & (free >> 8 == 1)
+        sr2 = axes & (free >> 8 == 1)
         return np.where(sr2, _DRIFT_SR2_KEYS + free, keys)
 
     def drift(self, b, h, key):

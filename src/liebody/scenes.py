@@ -651,13 +651,17 @@ class GravityGradient(Scene):
         :class:`~liebody.orbits.Table` ones in any mix. A table covers a span of times
         only (:attr:`time_span`): a run that leaves it stops with a torque failure.
     free_flow
-        The drift of the splittings between the kicks: ``"auto"`` (the default) and
-        ``"exact"``, the exact free flow (elliptic functions for an asymmetric body,
-        trig functions only for a symmetric one); ``"axes"``, the 5-rotation axis
-        splitting (cheaper per step, with a splitting error in the free motion).
+        The drift of the splittings between the kicks: ``"exact"``, the exact free flow
+        (elliptic functions for an asymmetric body, trig functions only for a symmetric
+        one); ``"axes"``, the 5-rotation axis splitting (cheaper per step, with a
+        splitting error in the free motion); ``"auto"`` (the default), the exact flow for
+        a fast rotator, a body spinning at least ten times faster than the sources turn
+        about it (:attr:`orbit_rate`), and the axis splitting for the others, each body by
+        its own initial state.
 
-    Default method: ``"splitting2"`` as kick(h/2) – exact free flow(h) – kick(h/2), and
-    ``splitting4/6/8`` compose the same step (``auto_free_flow = "exact"``). A
+    Default method: ``"splitting2"`` as kick(h/2) – exact free flow(h) – kick(h/2) for a
+    fast rotator, and ``splitting4/6/8`` compose the same step (``auto_free_flow =
+    "exact"``). A
     satellite or a planet turns fast under a weak torque: the free motion is most of
     the motion, and its exact flow leaves only the small error of splitting off the
     torque. On the spacecraft of the method guide (``I = (100, 120, 80)``, tumbling
@@ -666,8 +670,9 @@ class GravityGradient(Scene):
     the kicks is still 0.027 rad off after 13.8 million steps (the chart: ``python -m
     bench.work_precision --satellite``, in the method guide). A satellite librating
     slowly about its orbital frame gains nothing from the exact drift (its step costs
-    2.5-5 times more per error there): ``free_flow="axes"``. A gyrostat keeps the axis
-    splitting (the exact flow is the rigid body's).
+    2.5-5 times more per error there), so a body turning about as slowly as its orbit
+    keeps the axis splitting, which an ensemble runs on the SIMD kernels. A gyrostat keeps
+    the axis splitting (the exact flow is the rigid body's).
 
     The torque depends on the orientation and the time only, so a kick with ``q`` fixed
     is its exact flow: the splittings and their compositions are symplectic (for the
@@ -680,7 +685,8 @@ class GravityGradient(Scene):
     body: RigidBody
     sources: tuple
     free_flow: str
-    #: what ``free_flow="auto"`` means here: the exact free flow between the kicks
+    #: what ``free_flow="auto"`` means here: the exact free flow between the kicks, for a
+    #: fast rotator (``liebody._plan.FAST_ROTATOR``: a spin ten times the sources' rate)
     auto_free_flow: ClassVar[str] = "exact"
 
     def __init__(self, body: RigidBody, sources, free_flow: str = "auto") -> None:
@@ -721,6 +727,23 @@ class GravityGradient(Scene):
         return _memo(self, "torque_model", lambda: TorqueModel.gravity_gradient(
             self._blocks(), None if self.time_span == (-math.inf, math.inf)
             else self.time_span))
+
+    @property
+    def orbit_rate(self) -> float:
+        """The fastest angular rate of the sources about the body: a conic's mean motion, a
+        table's largest ``|r x dr/dt| / |r|^2`` between its samples. A body spinning ten
+        times faster or more is a fast rotator, whose default drift is the exact flow."""
+        def rate(orbit) -> float:
+            t = getattr(orbit, "t", None)
+            if t is None:
+                return float(orbit.mean_motion)
+            r = orbit.r
+            v = np.diff(r, axis=0) / np.diff(t)[:, None]
+            mid = 0.5 * (r[1:] + r[:-1])
+            return float(np.max(np.linalg.norm(np.cross(mid, v), axis=1)
+                                / np.sum(mid * mid, axis=1)))
+
+        return _memo(self, "orbit_rate", lambda: max(rate(o) for _, o in self.sources))
 
     @property
     def time_span(self) -> tuple[float, float]:
