@@ -530,20 +530,20 @@ def test_the_block_loops_compile_to_packed_instructions():
     from liebody._models import gravity_gradient
 
     buf = np.zeros(B.N_ROWS * B.BLOCK)
-    r = np.ones(B.BLOCK)
     p = np.ones((6, B.BLOCK))
+    par = p[None]  # (stages, slots, BLOCK): the rates and a kick's arm in stage 0
     idx = np.arange(B.BLOCK)
     mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 15)), idx, np.zeros(1),
           np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64))
     blocks = np.ones((B.BLOCK, 16))  # per-body inertia, one source
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
-    for fn, args in ((B._AX0F, (buf, r, 3, 0.1)), (B._AX2G, (buf, r, 3, 0.1)),
-                     (B._RC1F, (buf, r, 3, 0.1)), (B._SPHERE_FAST, (buf, r, 3, 0.1)),
-                     (B._SPHERE_GENERAL, (buf, r, 3, 0.1)),
-                     (B._kick_block, (buf, r, r, r, 3, 0.1)), (B._dmv_block, (buf, p, 3, 0.1)),
+    for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
+                     (B._RC1F, (buf, par, 0, 3, 0.1)), (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
+                     (B._SPHERE_GENERAL, (buf, par, 0, 3, 0.1)),
+                     (B._kick_block, (buf, par, 0, 3, 0.1)), (B._dmv_block, (buf, p, 3, 0.1)),
                      (B._diagnose_block, (buf, 3, mc, 0.0)),
-                     (B._project_block, (buf, 3, True, 0, r, 0.1)),
+                     (B._project_block, (buf, 3, True, 0, par, 0, 0.1)),
                      (gravity_gradient.torque_block,
                       (np.ones(4), blocks, idx, 16, buf, rows, np.zeros((6, B.BLOCK))))):
         opts = {k: v for k, v in fn.targetoptions.items() if k not in ("cache", "nopython")}

@@ -411,10 +411,10 @@ def _axis_kernel(axis: int, recurring: bool, general: bool):
 
     if recurring:
         @jit(tag=tag)
-        def kernel(buf, rate, nb, tau):
+        def kernel(buf, par, j, nb, tau):
             ht = 0.5 * tau
             for i in range(nb):
-                s2, c2, cm2 = trig(ht * rate[i] * buf[OA + i])
+                s2, c2, cm2 = trig(ht * par[j, 0, i] * buf[OA + i])
                 cm = -2.0 * s2 * s2  # cos(2 half) - 1
                 s = 2.0 * s2 * c2
                 mb = buf[OB + i]
@@ -431,10 +431,10 @@ def _axis_kernel(axis: int, recurring: bool, general: bool):
                 buf[OV + i] = v + fma(cm2, v, -(s2 * u))
     else:
         @jit(tag=tag)
-        def kernel(buf, rate, nb, tau):
+        def kernel(buf, par, j, nb, tau):
             ht = 0.5 * tau
             for i in range(nb):
-                s2, c2, _ = trig(ht * rate[i] * buf[OA + i])
+                s2, c2, _ = trig(ht * par[j, 0, i] * buf[OA + i])
                 c = fma(-2.0 * s2, s2, 1.0)
                 s = 2.0 * s2 * c2
                 mb = buf[OB + i]
@@ -459,9 +459,9 @@ def _sphere_kernel(general: bool):
     ``v = sin(|r|/2) r / |r|``, normalised by one Newton step."""
 
     @jit(tag="general" if general else "small")
-    def kernel(buf, rate, nb, tau):
+    def kernel(buf, par, j, nb, tau):
         for i in range(nb):
-            a = tau * rate[i]
+            a = tau * par[j, 0, i]
             r1 = a * buf[M10 + i]
             r2 = a * buf[M20 + i]
             r3 = a * buf[M30 + i]
@@ -508,7 +508,7 @@ _SPHERE_GENERAL = _sphere_kernel(True)
 
 
 @jit
-def _project_block(buf, nb, sphere, axis, rate, tau):
+def _project_block(buf, nb, sphere, axis, par, j, tau):
     """After a recurring rotation (``sphere``, or about ``axis``), ``q`` of every body whose
     half angle is large (``flows.LARGE_INCREMENT``, decided per body from its own state as
     the scalar flows decide it) back on the unit sphere: ``q (1 - delta/2)`` with
@@ -521,7 +521,7 @@ def _project_block(buf, nb, sphere, axis, rate, tau):
         x = buf[X0 + i]
         y = buf[Y0 + i]
         z = buf[Z0 + i]
-        a = tau * rate[i]
+        a = tau * par[j, 0, i]
         m1 = buf[M10 + i]
         m2 = buf[M20 + i]
         m3 = buf[M30 + i]
@@ -549,7 +549,7 @@ def _project_block(buf, nb, sphere, axis, rate, tau):
 
 # ------------------------------------------------------------------ kicks, DMV, diagnostics
 @jit
-def _kick_block(buf, c1r, c2r, c3r, nb, tau):
+def _kick_block(buf, par, j, nb, tau):
     """Uniform-gravity kick ``m += tau (Gamma x c)`` over a block (the scalar ``_kick``'s
     arithmetic); a torque that is not finite flags ``STATUS_TORQUE``."""
     for i in range(nb):
@@ -560,7 +560,7 @@ def _kick_block(buf, c1r, c2r, c3r, nb, tau):
         g1 = 2.0 * (x * z - w * y)
         g2 = 2.0 * (y * z + w * x)
         g3 = w * w - x * x - y * y + z * z
-        c1, c2, c3 = c1r[i], c2r[i], c3r[i]
+        c1, c2, c3 = par[j, 0, i], par[j, 1, i], par[j, 2, i]
         n1 = g2 * c3 - g3 * c2
         n2 = g3 * c1 - g1 * c3
         n3 = g1 * c2 - g2 * c1
@@ -776,55 +776,54 @@ def _diagnose_block(buf, nb, mc, t):
 
 # ------------------------------------------------------------------ one step of a block
 @jit(inline="always")
-def _apply(family, kind, axis, fast, buf, p, nb, tau):
+def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
     """A stage of kind ``kind`` for time ``tau`` on a block (``p``: its parameter rows),
     but for the kicks of models other than uniform gravity (:func:`_step`); ``fast``: the
     stage's flags (``FAST``: no range reduction needed; ``PROJECT``: a large recurring
     rotation, after which ``q`` is put back on the unit sphere)."""
     if family == F_DMV or family == F_DMV_FREE:
         if kind == DMV:
-            _dmv_block(buf, p, nb, tau)
+            _dmv_block(buf, par[j], nb, tau)
         else:
-            _kick_block(buf, p[0], p[1], p[2], nb, tau)
+            _kick_block(buf, par, j, nb, tau)
         return
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
-        _kick_block(buf, p[0], p[1], p[2], nb, tau)
+        _kick_block(buf, par, j, nb, tau)
         return
-    rate = p[0]
     if family == F_AXES or kind == AXIS:
         if fast & FAST:
             if axis == 0:
-                _AX0F(buf, rate, nb, tau)
+                _AX0F(buf, par, j, nb, tau)
             elif axis == 1:
-                _AX1F(buf, rate, nb, tau)
+                _AX1F(buf, par, j, nb, tau)
             else:
-                _AX2F(buf, rate, nb, tau)
+                _AX2F(buf, par, j, nb, tau)
         elif axis == 0:
-            _AX0G(buf, rate, nb, tau)
+            _AX0G(buf, par, j, nb, tau)
         elif axis == 1:
-            _AX1G(buf, rate, nb, tau)
+            _AX1G(buf, par, j, nb, tau)
         else:
-            _AX2G(buf, rate, nb, tau)
+            _AX2G(buf, par, j, nb, tau)
     elif kind == AXIS_RECURRING:
         if fast & FAST:
             if axis == 0:
-                _RC0F(buf, rate, nb, tau)
+                _RC0F(buf, par, j, nb, tau)
             elif axis == 1:
-                _RC1F(buf, rate, nb, tau)
+                _RC1F(buf, par, j, nb, tau)
             else:
-                _RC2F(buf, rate, nb, tau)
+                _RC2F(buf, par, j, nb, tau)
         elif axis == 0:
-            _RC0G(buf, rate, nb, tau)
+            _RC0G(buf, par, j, nb, tau)
         elif axis == 1:
-            _RC1G(buf, rate, nb, tau)
+            _RC1G(buf, par, j, nb, tau)
         else:
-            _RC2G(buf, rate, nb, tau)
+            _RC2G(buf, par, j, nb, tau)
     elif fast & FAST:
-        _SPHERE_FAST(buf, rate, nb, tau)
+        _SPHERE_FAST(buf, par, j, nb, tau)
     else:
-        _SPHERE_GENERAL(buf, rate, nb, tau)
+        _SPHERE_GENERAL(buf, par, j, nb, tau)
     if fast & PROJECT:
-        _project_block(buf, nb, kind == SPHERE, axis, rate, tau)
+        _project_block(buf, nb, kind == SPHERE, axis, par, j, tau)
 
 
 @jit
@@ -853,7 +852,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
             if models and kinds[j] == KICK:
                 _model_kick_block(buf, mc, j, nb, t, coefs[j] * h)
             else:
-                _apply(family, kinds[j], axes[j], fast[j], buf, par[j], nb, coefs[j] * h)
+                _apply(family, kinds[j], axes[j], fast[j], buf, par, j, nb, coefs[j] * h)
             t += clock[j] * h
         if ns > 1 and merge_ends and not save_now:
             tau = (coefs[last] + coefs[0]) * h
@@ -864,7 +863,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
         if models and kinds[last] == KICK:
             _model_kick_block(buf, mc, last, nb, t, tau)
         else:
-            _apply(family, kinds[last], axes[last], fast[last], buf, par[last], nb, tau)
+            _apply(family, kinds[last], axes[last], fast[last], buf, par, last, nb, tau)
         if diag:
             _diagnose_block(buf, nb, mc, t0 + (step0 + s + 1) * h)
     return pending, until_save

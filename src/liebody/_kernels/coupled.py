@@ -164,9 +164,9 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
 
 
 @jit
-def _rotate(buf, kind, axis, p, nb, tau, moments, idx, fast):
+def _rotate(buf, kind, axis, par, j, nb, tau, moments, idx, fast):
     """One free-flow stage of a block: the rotations through the SIMD ensembles' stage
-    (``batch._apply``; ``p[0]`` the rates, without range reduction where ``fast``: every
+    (``batch._apply``; ``par[j, 0]`` the rates, without range reduction where ``fast``: every
     half angle below ``batch.FAST_LIMIT``); the exact flow and the discrete Moser-Veselov
     step (RATTLE's free part) body by body. Returns the first body whose implicit DMV
     equation was not solved, -1 for none."""
@@ -190,7 +190,7 @@ def _rotate(buf, kind, axis, p, nb, tau, moments, idx, fast):
             buf[M10 + i], buf[M20 + i], buf[M30 + i] = r[4], r[5], r[6]
     else:  # a recurring rotation puts q back on the unit sphere after a large turn
         flags = (FAST if fast else 0) | (0 if kind == AXIS else PROJECT)
-        _apply(F_ROTATIONS, kind, axis, flags, buf, p, nb, tau)
+        _apply(F_ROTATIONS, kind, axis, flags, buf, par, j, nb, tau)
     return -1
 
 
@@ -260,7 +260,7 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
                             break
                         tau = rc[g, s, r] * h
                         half = 0.5 * abs(tau) * rmax[b, s, r] * lmax[b]
-                        bad = _rotate(bufs[b], kind, ra[g, s, r], rates[b, s, r], blk_n[b],
+                        bad = _rotate(bufs[b], kind, ra[g, s, r], rates[b, s], r, blk_n[b],
                                       tau, moments, blk_idx[b],
                                       half * (1.0 + 1e-6) <= FAST_LIMIT)
                         if bad >= 0:
