@@ -130,7 +130,7 @@ def settings(quick: bool) -> dict:
         return {"n": [1, 10, 100, 1000, 4000], "threads": [1, 2], "body_steps": 2_000_000,
                 "single_steps": 1_000_000, "loop_bodies": 10, "mujoco_body_steps": 20_000,
                 "mujoco_max_steps": 1000,
-                "min_steps": 50, "repeat": 5, "min_batch": 0.02, "long_call_s": 1.0,
+                "min_steps": 50, "repeat": 3, "min_batch": 0.02, "long_call_s": 1.0,
                 "seed": 1}
     return {"n": [1, 10, 100, 1000, 10_000, 100_000, 1_000_000], "threads": [1, 2],
             "body_steps": 20_000_000, "single_steps": 2_000_000, "loop_bodies": 50,
