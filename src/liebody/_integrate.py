@@ -724,18 +724,13 @@ class _Run:
         try:
             first = first_slice(self.model)
             if self.n_steps <= first and not self.progress:  # a short run: one call
-                done, saved, status = runner(*one_body_args(
-                    plan, params, merge, self.dt, self.t0, 0.0, self.n_steps, self.save_every,
-                    True, state, ctl, self.q_out[1:], self.m_out[1:], addr, self.dref,
-                    self.dmax))
+                done, saved, status = self._call(runner, plan, params, merge, state, ctl, addr,
+                                                 0, 0, self.n_steps)
             else:
                 for n in self._slices(self.n_steps, "step", first):
                     with interrupt_after_call():  # (a finished slice is kept on Ctrl-C)
-                        d, s, status = runner(*one_body_args(
-                            plan, params, merge, self.dt, self.t0, float(done), n,
-                            self.save_every, done + n == self.n_steps, state, ctl,
-                            self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
-                            self.dmax))
+                        d, s, status = self._call(runner, plan, params, merge, state, ctl,
+                                                  addr, done, saved, n)
                         done += d
                         saved += s
                     if status != S.STATUS_OK:
@@ -751,6 +746,15 @@ class _Run:
                                         self.method, self.dt, self.info, self._diagnostics())
             return self._finish(traj)
         return self._failed(status, done, saved, state)
+
+    def _call(self, runner, plan, params, merge, state, ctl, addr, done: int, saved: int,
+              n: int):
+        """One driver call: ``n`` steps after ``done`` (``saved`` samples written), the
+        last slice when it reaches ``n_steps``; returns ``(steps, samples, status)``."""
+        return runner(*one_body_args(
+            plan, params, merge, self.dt, self.t0, float(done), n, self.save_every,
+            done + n == self.n_steps, state, ctl, self.q_out[1 + saved:],
+            self.m_out[1 + saved:], addr, self.dref, self.dmax))
 
     def _diagnostics(self) -> dict | None:
         if not self.diag:

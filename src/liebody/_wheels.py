@@ -312,7 +312,7 @@ def _run_class():
                 self.dref[7] = 1.0 / T0 if T0 > 0 else 0.0
 
         def stepped(self):
-            from liebody._engine import first_slice, interrupt_after_call, one_body_args
+            from liebody._engine import first_slice, interrupt_after_call
             from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
 
             plan = self.method.plan(self.scene, self.m0, self.dt)
@@ -337,11 +337,8 @@ def _run_class():
                             end = start + length
                         k = min(stop, end) - done
                         with interrupt_after_call():
-                            d, s, status = runner(*one_body_args(
-                                plan, params, merge, self.dt, self.t0, float(done), k,
-                                self.save_every, done + k == self.n_steps, state, ctl,
-                                self.q_out[1 + saved:], self.m_out[1 + saved:], addr,
-                                self.dref, self.dmax))
+                            d, s, status = self._call(runner, plan, params, merge, state,
+                                                      ctl, addr, done, saved, k)
                             done += d
                             saved += s
                     if status != S.STATUS_OK:
