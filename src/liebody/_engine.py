@@ -268,10 +268,15 @@ def sample_diagnostics(dref: np.ndarray, q: np.ndarray, m: np.ndarray) -> np.nda
     return np.stack([np.max(e, axis=1), np.max(qe, axis=1), np.max(le, axis=1)], axis=1)
 
 
-def warn_invariants(traj: Trajectory, stacklevel: int) -> Trajectory:
-    """Warn when an invariant the method should keep left its tolerance by the end."""
+def warn_invariants(traj: Trajectory, stacklevel: int, ends: tuple | None = None
+                    ) -> Trajectory:
+    """Warn when an invariant the method should keep left its tolerance by the end.
+
+    ``ends``: a one-body run's first and last ``q`` and ``L`` as lists, ``(q0, q1, L0,
+    L1)``, when the caller has them (the same numbers as the trajectory's)."""
     try:
-        problems = _invariant_problems(traj)
+        problems = _invariant_problems(traj) if ends is None else \
+            _one_body_problems(traj, *ends)
     except Exception as exc:  # a user's potential that fails: never lose the trajectory
         warnings.warn(f"{traj.method.name}: the end-of-run invariant check failed "
                       f"({type(exc).__name__}: {exc}); the trajectory is returned unchecked",
@@ -390,13 +395,34 @@ def _rose_words(t: np.ndarray, T0: float, T1: float, rise: float, k: int) -> str
             f"(whose energy can only fall): the end state is not to be trusted")
 
 
-def _one_body_problems(traj: Trajectory) -> list[str]:
+def _energy_terms(scene) -> tuple:
+    """What the one-body check reads of a scene, once per scene (scenes are immutable):
+    its capabilities, moments ``(I1, I2, I3)`` and a gyrostat's rotor momentum (a list;
+    ``None`` for a rigid body)."""
+    d = scene.__dict__
+    terms = d.get(_TERMS)
+    if terms is None:
+        l = getattr(scene, "rotor_momentum", None)
+        terms = (scene.capabilities, tuple(scene.moments.tolist()),
+                 None if l is None else np.asarray(l, dtype=float).tolist())
+        d[_TERMS] = terms
+    return terms
+
+
+#: the scene's memo of :func:`_energy_terms` (``liebody.scenes``: dropped by ``take``)
+_TERMS = "_memo_energy_terms"
+
+
+def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None = None,
+                       L0: list | None = None, L1: list | None = None) -> list[str]:
     """:func:`_invariant_problems` for one body, in scalar arithmetic (a few
-    microseconds: this check runs at the end of every call)."""
+    microseconds: this check runs at the end of every call); ``q0, q1, L0, L1``: the
+    first and last samples as lists, when the caller has them."""
     method, scene = traj.method, traj.scene
-    caps = scene.capabilities
-    q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
-    L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
+    caps, (I1, I2, I3), l = _energy_terms(scene)
+    if q0 is None:
+        q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
+        L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
     if not all(map(math.isfinite, q1 + L1)):
         return []  # failed: warned already
     out = []
@@ -408,10 +434,8 @@ def _one_body_problems(traj: Trajectory) -> list[str]:
         if not abs(g1 - g0) <= CASIMIR_TOL * g0:
             out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
                        f"relative")
-    I1, I2, I3 = scene.moments.tolist()
-    l = getattr(scene, "rotor_momentum", None)
     if l is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
-        l1, l2, l3 = np.asarray(l, dtype=float).tolist()
+        l1, l2, l3 = l
         L0 = [L0[0] - l1, L0[1] - l2, L0[2] - l3]
         L1 = [L1[0] - l1, L1[1] - l2, L1[2] - l3]
     T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)

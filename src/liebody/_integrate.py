@@ -36,6 +36,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     MAX_MOMENTUM,
     QNORM_TOL,
     SLICE_SECONDS,
+    USER_FIRST_SLICE,
     _end_potentials,
     _torque_is_finite,
     diagnostic_reference,
@@ -52,7 +53,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
 )
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
-from liebody._validate import as_float_array, as_positive_float, as_positive_int
+from liebody._validate import F64, as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import (
     ConvergenceError,
@@ -86,10 +87,18 @@ def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
     if (L0 is None) == (omega0 is None):
         raise ValueError(f"give exactly one of {l_name} (body angular momentum) and "
                          f"{w_name} (body angular velocity)")
-    if L0 is not None and L0.__class__ in (list, tuple) and len(L0) == 3 and all(
-            v.__class__ is float or v.__class__ is int for v in L0):  # the common case
+    # the common case, one state as three numbers or a float64 array: each entry's bound
+    # also rules out NaN and inf (else the checks below say why)
+    cls = L0.__class__
+    if cls is np.ndarray:
+        if L0.shape == (3,) and L0.dtype is F64:
+            m1, m2, m3 = L0.tolist()
+            if abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM:
+                return np.array((m1, m2, m3))
+    elif (cls is list or cls is tuple) and len(L0) == 3 and all(
+            v.__class__ is float or v.__class__ is int for v in L0):
         m1, m2, m3 = (float(v) for v in L0)
-        if max(abs(m1), abs(m2), abs(m3)) <= MAX_MOMENTUM:  # (finite; else the checks below)
+        if abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM:
             return np.array((m1, m2, m3))
     if L0 is not None:
         name, m = l_name, np.array(as_float_array(l_name, L0, last_dim=3))
@@ -247,6 +256,8 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
 
 _DEFAULT_Q0 = (1.0, 0.0, 0.0, 0.0)
 _IDENTITY = np.array(_DEFAULT_Q0)
+#: what the flags accept
+_BOOLS = (bool, np.bool_)
 
 
 def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
@@ -384,11 +395,11 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                 f"dt above {0.5 * math.ulp(t0):.3g}")
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
-    if not isinstance(progress, bool | np.bool_):
+    if progress is not False and not isinstance(progress, _BOOLS):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
-    if not isinstance(diagnostics, bool | np.bool_):
+    if diagnostics is not False and not isinstance(diagnostics, _BOOLS):
         raise TypeError(f"diagnostics must be True or False, got {type(diagnostics).__name__}")
-    if simd is not None and not isinstance(simd, bool | np.bool_):
+    if simd is not None and not isinstance(simd, _BOOLS):
         raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
     n_bodies = _bodies(scene, q_init, m_init)
     if threads is not None or n_bodies is not None:
@@ -396,7 +407,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
 
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
-    if getattr(scene, "moving_rotor", False):  # reaction wheels: cut where they saturate
+    if scene.moving_rotor:  # reaction wheels: cut where they saturate
         return scene._integrate_run(method, q_init, m_init, dt, n_steps, save_every,
                                     progress, n_bodies, diagnostics, controls, t0,
                                     omega_given=omega0 is not None)
@@ -635,6 +646,8 @@ def _first_row(u):
 
 
 _DRIVERS: tuple | None = None
+#: the diagnostics' arrays of a run without them (its driver never reads or writes them)
+_NO_DREF, _NO_DMAX = np.zeros(S.DREF_WIDTH), np.zeros(3)
 
 
 def _drivers() -> tuple:
@@ -660,9 +673,11 @@ class _Run:
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.model, self.progress = model, progress
         self.diag = diagnostics
-        self.dref = (diagnostic_reference(scene, model, q0, m0, t0)[0] if diagnostics
-                     else np.zeros(S.DREF_WIDTH))
-        self.dmax = np.zeros(3)
+        if diagnostics:
+            self.dref = diagnostic_reference(scene, model, q0, m0, t0)[0]
+            self.dmax = np.zeros(3)
+        else:  # (the drivers without diagnostics never touch them: shared)
+            self.dref, self.dmax = _NO_DREF, _NO_DMAX
         n = t.shape[0]
         self.q_out = np.empty((n, 4))
         self.m_out = np.empty((n, 3))
@@ -716,13 +731,13 @@ class _Run:
             params = params.copy()
             write_controls(params, self.u)
         merge = plan.merge_ends and not self.diag
-        state = np.concatenate([self.q0, self.m0])
-        ctl = np.array([self.save_every, 0], dtype=np.int64)
+        state = np.concatenate((self.q0, self.m0))
+        ctl = np.array((self.save_every, 0), dtype=np.int64)
         addr = self.model.address
         done = saved = 0
         status = S.STATUS_OK
         try:
-            first = first_slice(self.model)
+            first = USER_FIRST_SLICE if self.model.function is not None else FIRST_SLICE
             if self.n_steps <= first and not self.progress:  # a short run: one call
                 done, saved, status = self._call(runner, plan, params, merge, state, ctl, addr,
                                                  0, 0, self.n_steps)
@@ -738,13 +753,15 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
-            L1, L2, L3 = self.m_out[-1].tolist()
-            if not max(abs(L1), abs(L2), abs(L3)) <= MAX_MOMENTUM:
+            q_out, m_out = self.q_out, self.m_out
+            L1 = m_out[-1].tolist()
+            if not max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
                 return self._overflowed()
-            self.q_out.flags.writeable = self.m_out.flags.writeable = False  # ours: no view
-            traj = Trajectory._complete(self._times(), self.q_out, self.m_out, self.scene,
-                                        self.method, self.dt, self.info, self._diagnostics())
-            return self._finish(traj)
+            q_out.flags.writeable = m_out.flags.writeable = False  # ours: no view
+            traj = Trajectory._complete(self._times(), q_out, m_out, self.scene, self.method,
+                                        self.dt, self.info, self._diagnostics())
+            return self._finish(traj, (self.q0.tolist(), q_out[-1].tolist(),
+                                       self.m0.tolist(), L1))
         return self._failed(status, done, saved, state)
 
     def _call(self, runner, plan, params, merge, state, ctl, addr, done: int, saved: int,
@@ -842,7 +859,9 @@ class _Run:
             f"the method's recipe holds a stage its driver does not run (a bug: please "
             f"report it if a fresh cache does not help)")
 
-    def _finish(self, traj: Trajectory) -> Trajectory:
-        return warn_invariants(traj, stacklevel=5)
+    def _finish(self, traj: Trajectory, ends: tuple | None = None) -> Trajectory:
+        """``traj``, after the end-of-run check (``ends``: its first and last ``q`` and
+        ``L`` as lists, when known)."""
+        return warn_invariants(traj, stacklevel=5, ends=ends)
 
 

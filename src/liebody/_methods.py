@@ -19,7 +19,6 @@ Example: a fixed-ordering Strang splitting, integrable at once by
 
 from __future__ import annotations
 
-import contextlib
 import math
 import warnings
 from collections import OrderedDict
@@ -30,8 +29,12 @@ import numpy as np
 
 from liebody import _plan as P
 from liebody._kernels import stages as S
+from liebody._validate import F64
 from liebody.scenes import DEPENDENCIES, Capabilities
 
+#: the scene's memo (``liebody.scenes``, dropped by ``Scene.take``) of the methods that
+#: :func:`check_supports` accepted for it: ``{id(method): method}``
+_SUPPORTED = "_memo_supported"
 #: one-body plans kept (least recently used dropped first)
 PLAN_CACHE_SIZE = 128
 #: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
@@ -158,14 +161,20 @@ class Method:
         not depend on them. A cached plan is shared: never write to its arrays (copy
         ``params`` first, as the drivers' callers do for the controls).
         """
-        m0 = np.asarray(m0, dtype=float).reshape(3)
-        any_state = (self.name, id(scene), float(h))
-        for key in (any_state, (*any_state, m0.tobytes())):
+        if m0.__class__ is not np.ndarray or m0.shape != (3,) or m0.dtype is not F64:
+            m0 = np.asarray(m0, dtype=float).reshape(3)
+        any_state = (self.name, id(scene), h if h.__class__ is float else float(h))
+        key = any_state
+        entry = _PLANS.get(key)
+        if entry is None:
+            key = (*any_state, m0.tobytes())
             entry = _PLANS.get(key)
-            if entry is not None and entry[0] is self and entry[1] is scene:
-                with contextlib.suppress(KeyError):  # evicted meanwhile by another thread
-                    _PLANS.move_to_end(key)
-                return entry[2]
+        if entry is not None and entry[0] is self and entry[1] is scene:
+            try:  # noqa: SIM105 - (contextlib.suppress costs 0.3 us a call)
+                _PLANS.move_to_end(key)
+            except KeyError:  # evicted meanwhile by another thread
+                pass
+            return entry[2]
         bodies = P.Bodies.of(scene, m0.reshape(1, 3))
         (_, plan), = self._plans_of(bodies, h)
         key = (*any_state, m0.tobytes()) if bodies.orbit_read[0] else any_state
@@ -747,6 +756,9 @@ def get(name) -> Method:
 def check_supports(method: Method, scene) -> None:
     """Raise a ``ValueError`` naming the rule when ``method`` cannot integrate ``scene``
     (or when the scene's capabilities and torque model disagree: the scene contract)."""
+    done = scene.__dict__.get(_SUPPORTED)
+    if done is not None and done.get(id(method)) is method:
+        return  # checked before: a scene is immutable (the scene contract)
     caps = scene.capabilities
     torqued = scene.torque_model().code != S.TORQUE_NONE
     if bool(caps.torque) != torqued:
@@ -763,6 +775,7 @@ def check_supports(method: Method, scene) -> None:
             f"times; a gyrostat (rotor momentum l, body angular velocity (L - l) / I) is "
             f"stepped: use splitting2 (its default), splitting4/6/8 or a baseline")
     if method.supports(scene):
+        scene.__dict__.setdefault(_SUPPORTED, {})[id(method)] = method
         return
     able = [m.name for m in _REGISTRY.values() if m.supports(scene)]
     raise ValueError(

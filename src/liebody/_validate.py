@@ -128,6 +128,8 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
 #: plain Python containers and numbers the scalar fast paths take as they are
 _SEQUENCES = (list, tuple)
 _REALS = (float, int)
+#: the dtype the array fast paths take as it is
+F64 = np.dtype(np.float64)
 
 
 def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray:
@@ -137,11 +139,19 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
     ``ValueError`` that says how to normalise. Accepted quaternions are
     returned renormalised to round-off.
     """
-    if value.__class__ in _SEQUENCES and len(value) == 4 and all(
-            v.__class__ in _REALS for v in value):  # (the fixed cost of every call)
+    # the fixed cost of every call: one quaternion as four numbers or a float64 array;
+    # a norm within tol of 1 is finite, so it also rules out NaN and inf
+    if value.__class__ is np.ndarray:
+        if value.shape == (4,) and value.dtype is F64:
+            w, x, y, z = value.tolist()
+            n = math.sqrt(w * w + x * x + y * y + z * z)
+            if abs(n - 1.0) <= tol:  # (else the general path below says why)
+                return np.array((w / n, x / n, y / n, z / n))
+    elif value.__class__ in _SEQUENCES and len(value) == 4 and all(
+            v.__class__ in _REALS for v in value):
         w, x, y, z = (float(v) for v in value)
         n = math.sqrt(w * w + x * x + y * y + z * z)
-        if abs(n - 1.0) <= tol:  # (else the general path below says why)
+        if abs(n - 1.0) <= tol:
             return np.array((w / n, x / n, y / n, z / n))
     q = as_float_array(name, value, last_dim=4)
     if q.ndim == 1:  # one quaternion: scalar arithmetic (the fixed cost of every call)

@@ -257,6 +257,8 @@ class Scene:
     per_body: ClassVar[dict[str, int]] = {}
     #: number of control inputs ``u`` the torque takes (:class:`ControlledBody`)
     controls: int = 0
+    #: the rotor momentum changes in time (:class:`~liebody.ReactionWheels`)
+    moving_rotor: ClassVar[bool] = False
 
     def __getstate__(self) -> dict:
         """The parameters, without what the scene memoised: a user torque's model holds

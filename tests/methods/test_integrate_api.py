@@ -113,6 +113,13 @@ def test_trajectory_derived_quantities(hlw):
         ({"dt": -0.1}, ValueError, "dt must be > 0"),
         ({"dt": math.nan}, ValueError, "dt must be finite"),
         ({"L0": (1.0, math.inf, 0.0)}, ValueError, "L0 must be finite"),
+        # a NaN after a finite entry (max() of the sizes would skip it), list and array
+        ({"L0": [1.0, math.nan, 2.0]}, ValueError, "L0 must be finite"),
+        ({"L0": np.array([1.0, math.nan, 2.0])}, ValueError, "L0 must be finite"),
+        ({"L0": np.array([1.0, 2.0, 1e151])}, ValueError, "L0 is too large"),
+        ({"q0": np.array([1.0, 0.1, 0.0, 0.0])}, ValueError, "q0 must be a unit quaternion"),
+        ({"q0": np.array([1.0, math.nan, 0.0, 0.0])}, ValueError, "q0 must be finite"),
+        ({"q0": np.array([1.0, 0.0, 0.0])}, ValueError, r"q0 must have shape \(\.\.\., 4\)"),
         ({"L0": (1.0, 0.0)}, ValueError, r"L0 must have shape \(\.\.\., 3\)"),
         ({"steps": 0}, ValueError, "steps must be a positive integer"),
         ({"steps": 2.5}, ValueError, "steps must be a positive integer"),
