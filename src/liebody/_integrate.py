@@ -41,6 +41,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     _torque_is_finite,
     diagnostic_reference,
     diagnostics_dict,
+    entry_point,
     first_slice,
     input_sizes,
     interrupt_after_call,
@@ -206,6 +207,10 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
     bytes of each body's other arrays (:data:`RUN_BYTES_PER_BODY` by default for an
     ensemble), do not fit in the available memory, saying which ``save_every`` would.
     """
+    if bodies == 1:  # a short run's times (at most SHORT_TIMES_SAMPLES: they fit)
+        cached = _SHORT_TIMES.get((n_steps, save_every, dt))
+        if cached is not None:
+            return cached
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
     n_samples = n_saves + 1
     per = _per_sample(bodies)
@@ -382,7 +387,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
-    _check_batch("q0", q_init)
+    if q_init.ndim != 1:
+        _check_batch("q0", q_init)
     m_init = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
     if t0 != 0.0:
@@ -393,8 +399,16 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                 f"{math.ulp(t0):.3g} apart), so the clock could not advance. Measure the "
                 f"time from a later origin (subtract a reference time from t0), or use a "
                 f"dt above {0.5 * math.ulp(t0):.3g}")
-    n_steps = _step_count(dt, steps, t_end)
-    save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
+    elif t0.__class__ is not float:  # a zero of another type: the drivers take a float
+        t0 = float(as_float_array("t0", t0, shape=()))
+    if t_end is None and steps.__class__ is int and 0 < steps <= MAX_STEPS:
+        n_steps = steps  # (the common case, at once)
+    else:
+        n_steps = _step_count(dt, steps, t_end)
+    if save_every is None:
+        save_every = n_steps
+    elif not (save_every.__class__ is int and 0 < save_every <= MAX_STEPS):
+        save_every = as_positive_int("save_every", save_every)
     if progress is not False and not isinstance(progress, _BOOLS):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     if diagnostics is not False and not isinstance(diagnostics, _BOOLS):
@@ -412,13 +426,16 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                                     progress, n_bodies, diagnostics, controls, t0,
                                     omega_given=omega0 is not None)
     model = scene.torque_model()
-    _check_potential(scene, model, q_init, n_bodies, t0)
-    u = as_controls(scene, controls, n_bodies)
+    if model.code == S.TORQUE_USER:
+        _check_potential(scene, model, q_init, n_bodies, t0)
+    u = None if controls is None and not scene.controls else \
+        as_controls(scene, controls, n_bodies)
     promise = model.function is not None and "momentum" not in scene.capabilities.torque
     if method.sampled:
         _check_phase(scene, m_init, n_steps * dt)
     if n_bodies is None:
-        _check_torque(model, q_init, m_init, u, t0, orientation_only=promise)
+        if model.function is not None:
+            _check_torque(model, q_init, m_init, u, t0, orientation_only=promise)
         t = _sample_times(n_steps, save_every, dt)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
@@ -490,8 +507,17 @@ def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
 
 
 def scene_batch_shape(scene) -> tuple[int, ...]:
-    """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many."""
-    return tuple(getattr(scene, "batch_shape", ()))
+    """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many
+    (kept on the scene: it is immutable)."""
+    d = scene.__dict__
+    shape = d.get(_BATCH_SHAPE)
+    if shape is None:
+        shape = d[_BATCH_SHAPE] = tuple(getattr(scene, "batch_shape", ()))
+    return shape
+
+
+#: the scene's memo of its batch shape (``liebody.scenes``: dropped by ``Scene.take``)
+_BATCH_SHAPE = "_memo_batch_shape"
 
 
 def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float) -> int:
@@ -648,6 +674,8 @@ def _first_row(u):
 _DRIVERS: tuple | None = None
 #: the diagnostics' arrays of a run without them (its driver never reads or writes them)
 _NO_DREF, _NO_DMAX = np.zeros(S.DREF_WIDTH), np.zeros(3)
+#: a one-body driver's control block before its first call (copied; ``[0]``: save_every)
+_CTL = np.zeros(2, dtype=np.int64)
 
 
 def _drivers() -> tuple:
@@ -659,6 +687,18 @@ def _drivers() -> tuple:
 
         _DRIVERS = (RUNNERS, DIAG_RUNNERS)
     return _DRIVERS
+
+
+_EXACT: list = []
+
+
+def _exact_flow_times():
+    """The exact flow's kernel at output times, imported on first use and then kept."""
+    if not _EXACT:
+        from liebody._kernels.exact import exact_flow_times
+
+        _EXACT.append(exact_flow_times)
+    return _EXACT[0]
 
 
 class _Run:
@@ -690,15 +730,21 @@ class _Run:
     # -------------------------------------------------------------- the exact flow
     def sampled(self) -> Trajectory:
         """The exact flow evaluated at the output times, in slices of samples."""
-        from liebody._kernels.exact import exact_flow_times
-
+        exact_flow_times = _exact_flow_times()
         moments = np.ascontiguousarray(self.scene.moments, dtype=np.float64)
         t, q, m = self.t, self.q_out, self.m_out
         done = 1  # sample 0 is the initial state
+        total = len(t) - 1
         try:
-            for n in self._slices(len(t) - 1, "sample"):
+            slices = (total,) if total <= FIRST_SLICE and not self.progress else \
+                self._slices(total, "sample")
+            for n in slices:
                 sl = slice(done, done + n)
                 exact_flow_times(moments, self.q0, self.m0, t[sl], q[sl], m[sl])
+                if n <= SHORT_TIMES_SAMPLES and all(map(
+                        math.isfinite, q[sl].ravel().tolist() + m[sl].ravel().tolist())):
+                    done += n  # (a few samples: checked as numbers, at once)
+                    continue
                 bad = ~(np.isfinite(q[sl]).all(axis=1) & np.isfinite(m[sl]).all(axis=1))
                 if bad.any():
                     k = done + int(np.argmax(bad))
@@ -710,8 +756,10 @@ class _Run:
         if self.diag:  # the exact flow keeps its invariants: measured on the samples
             diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True,
                                     self.dref)
-        return self._finish(Trajectory(self._times(), q, m, self.scene, self.method, self.dt,
-                                       diagnostics=diag))
+        q.setflags(write=False)  # ours: no view
+        m.setflags(write=False)
+        return self._finish(Trajectory._complete(self._times(), q, m, self.scene, self.method,
+                                                 self.dt, self.info, diag))
 
     def _times(self) -> np.ndarray:
         """The sample times ``t0 + t``."""
@@ -731,8 +779,10 @@ class _Run:
             params = params.copy()
             write_controls(params, self.u)
         merge = plan.merge_ends and not self.diag
-        state = np.concatenate((self.q0, self.m0))
-        ctl = np.array((self.save_every, 0), dtype=np.int64)
+        q0, m0 = self.q0.tolist(), self.m0.tolist()
+        state = np.array(q0 + m0)
+        ctl = _CTL.copy()
+        ctl[0] = self.save_every
         addr = self.model.address
         done = saved = 0
         status = S.STATUS_OK
@@ -753,25 +803,38 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
-            q_out, m_out = self.q_out, self.m_out
-            L1 = m_out[-1].tolist()
+            # the run ended on its last sample (a saved step is never merged with the
+            # next): the state is that sample
+            end = state.tolist()
+            L1 = end[4:]
             if not max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
                 return self._overflowed()
-            q_out.flags.writeable = m_out.flags.writeable = False  # ours: no view
-            traj = Trajectory._complete(self._times(), q_out, m_out, self.scene, self.method,
-                                        self.dt, self.info, self._diagnostics())
-            return self._finish(traj, (self.q0.tolist(), q_out[-1].tolist(),
-                                       self.m0.tolist(), L1))
+            q_out, m_out = self.q_out, self.m_out
+            q_out.setflags(write=False)  # ours: no view
+            m_out.setflags(write=False)
+            traj = Trajectory._complete(self.t if self.t0 == 0.0 else self.t0 + self.t, q_out,
+                                        m_out, self.scene, self.method, self.dt, self.info,
+                                        self._diagnostics() if self.diag else None)
+            return self._finish(traj, (q0, end[:4], m0, L1))
         return self._failed(status, done, saved, state)
 
     def _call(self, runner, plan, params, merge, state, ctl, addr, done: int, saved: int,
               n: int):
         """One driver call: ``n`` steps after ``done`` (``saved`` samples written), the
         last slice when it reaches ``n_steps``; returns ``(steps, samples, status)``."""
-        return runner(*one_body_args(
-            plan, params, merge, self.dt, self.t0, float(done), n, self.save_every,
-            done + n == self.n_steps, state, ctl, self.q_out[1 + saved:],
-            self.m_out[1 + saved:], addr, self.dref, self.dmax))
+        args = one_body_args(plan, params, merge, self.dt, self.t0, float(done), n,
+                             self.save_every, done + n == self.n_steps, state, ctl,
+                             self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
+                             self.dmax)
+        fn = plan.entries.get(runner)
+        if fn is not None:  # the plan's second call on: the compiled entry point (every
+            return fn(*args)  # argument has the same type on every call)
+        out = runner(*args)  # numba's dispatch (compiles or loads it the first time)
+        if runner in plan.entries:  # resolved on a second call (a plan made for one run,
+            plan.entries[runner] = entry_point(runner, args)  # a new orbit's, is not)
+        else:
+            plan.entries[runner] = None
+        return out
 
     def _diagnostics(self) -> dict | None:
         if not self.diag:

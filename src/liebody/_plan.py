@@ -28,6 +28,7 @@ or dissipation step around the recipe's free flow (:func:`scene_step`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -127,10 +128,10 @@ class Bodies:
         mp = self.model_params
         return mp if mp.shape[0] == 1 else np.ascontiguousarray(mp[idx])
 
-    @property
+    @cached_property
     def has_rotor(self) -> bool:
         """Whether any body is a gyrostat (carries rotor momentum, or wheels whose
-        momentum changes)."""
+        momentum changes); computed once (the recipes ask for it at every stage)."""
         return self.moving_rotor or bool(np.any(self.rotor != 0.0))
 
     @property
@@ -179,10 +180,15 @@ class Bodies:
     def symmetry(self) -> np.ndarray:
         """``(N,)``: the symmetry axis (0, 1, 2), :data:`SPHERICAL` or :data:`ASYMMETRIC`
         (a gyrostat counts as asymmetric: its rotor breaks the symmetric-body flows)."""
+        if self.has_rotor:
+            return np.full(len(self), ASYMMETRIC)
+        if len(self) == 1:  # one body: the same rules on three numbers
+            I0, I1, I2 = self.moments[0].tolist()
+            sym = SPHERICAL if I0 == I1 == I2 else 2 if I0 == I1 else 1 if I0 == I2 else \
+                0 if I1 == I2 else ASYMMETRIC
+            return np.array([sym])
         I0, I1, I2 = self.moments.T
         out = np.full(len(self), ASYMMETRIC)
-        if self.has_rotor:
-            return out
         out[I1 == I2] = 0
         out[I0 == I2] = 1
         out[I0 == I1] = 2
@@ -268,6 +274,15 @@ class Stage:
         write to them."""
         cache = self.__dict__.setdefault("_rows", {})
         p = cache.get(n)
+        if p is None and n == 1:  # one body: its row as numbers (a plan's set-up cost)
+            row = [0.0] * S.N_PARAMS
+            row[S.P_I1:S.P_I3 + 1] = _first(self.moments, 2)
+            row[S.P_RATE] = _first(self.rate, 1)
+            row[S.P_EPS] = _first(self.eps, 1)
+            row[S.P_L1:S.P_L3 + 1] = _first(self.rotor, 2)
+            row[S.P_TORQUE] = float(self.torque)
+            if len(row) == S.N_PARAMS:  # (else the general path says what is wrong)
+                p = cache[n] = np.array([row])
         if p is None:
             fields = ((self.moments, 2), (self.rate, 1), (self.eps, 1), (self.rotor, 2))
             shared = all(_same_for_all(v, rank) for v, rank in fields)
@@ -288,7 +303,14 @@ class Stage:
     def identity(self) -> bool:
         """A stage that does nothing: zero time, or a rotation at zero rate for every body."""
         return self.coef == 0.0 or (S.KINDS[self.kind].rotation
-                                    and bool(np.all(np.asarray(self.rate) == 0.0)))
+                                    and bool((np.asarray(self.rate) == 0.0).all()))
+
+
+def _first(value, rank: int):
+    """The first body's value of a stage field of ``rank`` dimensions with the body axis
+    (a number, or a list for a vector)."""
+    a = np.asarray(value, dtype=float)
+    return (a[0] if a.ndim == rank else a).tolist()
 
 
 def _same_for_all(value, rank: int) -> bool:
@@ -338,6 +360,9 @@ class Plan:
     #: the drivers' model token (``dispatch.token``): the one torque model code of the
     #: stage rows, or "any" where they hold several
     token: tuple = (0,)
+    #: driver -> its compiled entry point for this plan's argument types, resolved by the
+    #: run code on the first call (``_engine.entry_point``; a fresh one for a copy)
+    entries: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def model_rows(self, c) -> np.ndarray:
         """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
@@ -383,7 +408,9 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         params = np.stack(rows, axis=1)  # (1, s, P)
     else:
         params = np.stack([np.broadcast_to(r, (n, S.N_PARAMS)) for r in rows], axis=1)
-    codes = {int(c) for c in np.unique(params[:, :, S.P_TORQUE])} - {S.TORQUE_NONE}
+    torques = params[:, :, S.P_TORQUE]
+    codes = {int(c) for c in (torques.ravel().tolist() if torques.shape[0] == 1
+                              else np.unique(torques))} - {S.TORQUE_NONE}
     code = codes.pop() if len(codes) == 1 else (S.TORQUE_NONE if not codes else -1)
     return Plan(
         kinds=kinds,
@@ -918,9 +945,9 @@ class Baseline(Recipe):
 def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, Plan]]:
     """The recipe's plans for the bodies ``b``: one per group of bodies whose steps share
     a structure, with the indices of its bodies."""
-    keys = recipe.keys(b, h)
+    keys = np.asarray(recipe.keys(b, h))
     out = []
-    for key in np.unique(keys):
+    for key in (keys.tolist() if len(keys) == 1 else np.unique(keys)):
         idx = np.flatnonzero(keys == key)
         sub = b if len(idx) == len(b) else b.take(idx)
         stages, info = recipe.stages(sub, h, int(key))

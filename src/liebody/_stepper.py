@@ -28,6 +28,7 @@ import warnings
 import numpy as np
 
 from liebody import _methods
+from liebody._engine import entry_point as _entry_point
 from liebody._engine import groups_info
 from liebody._kernels import stages as S
 from liebody._plan import body_rows
@@ -45,17 +46,6 @@ _SLICE_SECONDS = 0.2
 _FIRST_WORK = 64
 #: a slice is at most this many times the previous one (the first ones are noisy)
 _GROWTH = 16
-
-
-def _entry_point(runner, args):
-    """The compiled entry point of ``runner`` for ``args`` (a plain call skips numba's
-    type dispatch: about 0.4 us less per call); the runner itself when numba is off."""
-    overloads = getattr(runner, "overloads", None)
-    if not overloads:
-        return runner
-    sig = tuple(runner.typeof_pyval(a) for a in args)
-    cres = overloads.get(sig)
-    return runner if cres is None else cres.entry_point
 
 
 def _join(pool) -> None:

@@ -22,6 +22,10 @@ class Failure(NamedTuple):
     reason: str
 
 
+#: the fields' defaults of :class:`Trajectory` (and subclasses), for ``_complete``
+_DEFAULTS: dict = {}
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Saved samples of a run. Memory is exactly the saved samples.
@@ -109,13 +113,20 @@ class Trajectory:
             t = t.view()
             t.flags.writeable = False
         obj = object.__new__(cls)
-        defaults = cls.__dict__.get("_DEFAULTS")
-        if defaults is None:  # every field's default, once
-            defaults = {f.name: f.default for f in fields(cls) if f.default is not MISSING}
-            cls._DEFAULTS = defaults
-        obj.__dict__.update(defaults)
-        obj.__dict__.update(t=t, q=q, L=L, scene=scene, method=method, dt=dt, info=info,
-                            diagnostics=diagnostics)
+        d = obj.__dict__
+        defaults = _DEFAULTS.get(cls)
+        if defaults is None:  # every field's default, once per class
+            defaults = _DEFAULTS[cls] = {f.name: f.default for f in fields(cls)
+                                         if f.default is not MISSING}
+        d.update(defaults)
+        d["t"] = t
+        d["q"] = q
+        d["L"] = L
+        d["scene"] = scene
+        d["method"] = method
+        d["dt"] = dt
+        d["info"] = info
+        d["diagnostics"] = diagnostics
         if diagnostics:
             for value in diagnostics.values():
                 if isinstance(value, np.ndarray):
