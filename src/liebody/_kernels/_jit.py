@@ -54,6 +54,15 @@ process warns (:class:`~liebody.errors.CacheWarning`, naming the file, its folde
 to clear the cache). A save that fails (a folder that cannot be written) warns the same
 way instead of failing the compile: the kernel runs, uncached.
 
+Wrappers. numba builds two wrappers around every compiled function besides its code:
+one that Python calls (argument unboxing) and a C-callable one (for first-class function
+values). liebody calls no kernel as a first-class function, so no kernel gets the C
+wrapper; a helper called only from other kernels (``jit(inner=True)``) gets neither.
+Each wrapper is lowered and optimised by LLVM like a small kernel, about 12 and 17 ms
+of a first compile per kernel. Calling an inner helper from Python raises
+``TypeError`` (numba itself would jump to the missing wrapper); with the JIT off it is
+the plain Python function.
+
 numba itself is imported on the first kernel, not with this module, so
 ``liebody.CacheWarning`` can be named (e.g. in a warnings filter) without loading it.
 """
@@ -67,7 +76,10 @@ import warnings
 from liebody.errors import CacheWarning
 
 #: Options every kernel is compiled with.
-OPTIONS: dict = {"cache": True, "nogil": True, "error_model": "numpy"}
+OPTIONS: dict = {"cache": True, "nogil": True, "error_model": "numpy",
+                 "no_cfunc_wrapper": True}
+#: Options added for a helper called only from kernels (``jit(inner=True)``).
+INNER_OPTIONS: dict = {"no_cpython_wrapper": True}
 
 #: The reason the disk cache is off in this process (``None`` while it works).
 _cache_off: str | None = None
@@ -289,6 +301,25 @@ def _compile(fn, options: dict):
     return dispatcher
 
 
+def _inner_class(base):
+    """The dispatcher class of an inner helper: ``base`` whose call from Python raises
+    (made once per class)."""
+    cls = _INNER_CLASSES.get(base)
+    if cls is None:
+        def __call__(self, *args, **kwargs):
+            raise TypeError(
+                f"{self.py_func.__module__}.{self.py_func.__qualname__} is a helper of "
+                f"liebody's compiled kernels, compiled without a Python entry point; it "
+                f"can be called only from other kernels")
+
+        cls = type(f"Inner{base.__name__}", (base,), {"__call__": __call__})
+        _INNER_CLASSES[base] = cls
+    return cls
+
+
+_INNER_CLASSES: dict = {}
+
+
 #: ``module:qualname`` of every kernel made so far (each name once: see the docstring)
 _NAMES: dict[str, object] = {}
 
@@ -306,23 +337,33 @@ def _name(fn, tag: str | None):
     return fn
 
 
-def jit(*args, tag: str | None = None, **extra):
+def jit(*args, tag: str | None = None, inner: bool = False, **extra):
     """``numba.njit`` with :data:`OPTIONS` (plus per-kernel extras such as ``inline``).
 
     Use as ``@jit`` or ``@jit(inline="always")``; a kernel made by a factory takes a
     ``tag`` that makes its name its own (``@jit(tag=f"family{family}")``, see the module
-    docstring). Without a writable cache folder the kernel is compiled without the disk
-    cache.
+    docstring). ``inner=True``: a helper called only from other kernels, compiled
+    without the wrapper Python calls (:data:`INNER_OPTIONS`; a call from Python raises
+    ``TypeError``). Without a writable cache folder the kernel is compiled without the
+    disk cache.
     """
-    options = {**OPTIONS, **extra}
+    options = {**OPTIONS, **(INNER_OPTIONS if inner else {}), **extra}
+
+    def make(fn):
+        dispatcher = _compile(_name(fn, tag), options)
+        if inner and hasattr(dispatcher, "py_func"):  # (not with NUMBA_DISABLE_JIT)
+            dispatcher.__class__ = _inner_class(type(dispatcher))
+        return dispatcher
+
     if args:
-        return _compile(_name(args[0], tag), options)
-    return lambda fn: _compile(_name(fn, tag), options)
+        return make(args[0])
+    return make
 
 
 def overload_options() -> dict:
     """The ``jit_options`` of a numba ``@overload`` implementation: :data:`OPTIONS`
     without the disk cache. An overload is compiled into each kernel that calls it, and
     that kernel is cached (or not) by :func:`jit`; asking numba to cache the overload
-    itself bypassed the no-cache fallback and failed a read-only install."""
-    return {k: v for k, v in OPTIONS.items() if k != "cache"}
+    itself bypassed the no-cache fallback and failed a read-only install. (The
+    wrapper options are left to numba: an overload is compiled into its caller.)"""
+    return {k: v for k, v in OPTIONS.items() if k not in ("cache", "no_cfunc_wrapper")}

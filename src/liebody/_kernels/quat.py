@@ -33,7 +33,7 @@ def qmul(aw, ax, ay, az, bw, bx, by, bz):
     )
 
 
-@jit
+@jit(inner=True)
 def qrotate(w, x, y, z, vx, vy, vz):
     """``R(q) v`` for a unit quaternion, via ``v + 2 u x (u x v + w v)``, ``u = (x, y, z)``."""
     tx = 2.0 * (y * vz - z * vy)
@@ -46,7 +46,7 @@ def qrotate(w, x, y, z, vx, vy, vz):
     )
 
 
-@jit
+@jit(inner=True)
 def qrotate_inv(w, x, y, z, vx, vy, vz):
     """``R(q)^T v`` (space to body) for a unit quaternion."""
     return qrotate(w, -x, -y, -z, vx, vy, vz)
@@ -81,7 +81,7 @@ def qexp(rx, ry, rz):
     return c, s * rx, s * ry, s * rz
 
 
-@jit
+@jit(inner=True)
 def _two_square(a):
     """``a*a`` as an exact sum ``hi + lo`` (Dekker's error-free product).
 
@@ -94,7 +94,7 @@ def _two_square(a):
     return p, ((ah * ah - p) + 2.0 * ah * al) + al * al
 
 
-@jit
+@jit(inner=True)
 def _two_sum(a, b):
     """``a + b`` as an exact sum ``s + e`` (Knuth's error-free sum).
 
@@ -131,7 +131,7 @@ def qunit_increment(w, x, y, z):
     return w, k * x, k * y, k * z
 
 
-@jit
+@jit(inner=True)
 def qexp_increment(rx, ry, rz):
     """:func:`qexp` as ``(cm, vx, vy, vz)`` with ``cm = cos(|r|/2) - 1`` kept to full
     relative accuracy, for :func:`qmul_increment`.
@@ -147,7 +147,7 @@ def qexp_increment(rx, ry, rz):
     return cm, vx, vy, vz
 
 
-@jit
+@jit(inner=True)
 def increment_defect(cm, vx, vy, vz):
     """``delta = (1 + cm)^2 + |v|^2 - 1 = 2 cm + cm^2 + |v|^2`` of an increment, to far
     below round-off (error-free squares and sums: Dekker 1971, Knuth 1997).
@@ -166,7 +166,7 @@ def increment_defect(cm, vx, vy, vz):
     return s + e
 
 
-@jit
+@jit(inner=True)
 def qproject_unit(w, x, y, z):
     """``q`` scaled onto the unit sphere: ``q (1 - delta/2)`` with ``delta = |q|^2 - 1``
     computed exactly (error-free squares and sums). Scaling leaves the rotation
@@ -183,7 +183,7 @@ def qproject_unit(w, x, y, z):
     return w + k * w, x + k * x, y + k * y, z + k * z
 
 
-@jit
+@jit(inner=True)
 def qmul_increment(w, x, y, z, cm, vx, vy, vz):
     """``q * (1 + cm, v)`` evaluated as ``q + (cm q + q * (0, v))``: the small update is
     formed first and added once, so its rounding does not depend on the grid near 1."""
@@ -193,7 +193,7 @@ def qmul_increment(w, x, y, z, cm, vx, vy, vz):
             z + (cm * z + w * vz + x * vy - y * vx))
 
 
-@jit
+@jit(inner=True)
 def qlog(w, x, y, z):
     """Rotation vector of a unit quaternion, angle in ``[0, pi]``.
 
@@ -222,7 +222,7 @@ def qnormalize(w, x, y, z):
     return w / n, x / n, y / n, z / n
 
 
-@jit
+@jit(inner=True)
 def qaxis_rotation(w, x, y, z, axis, s, c):
     """``q * (c, s e_axis)``: right-multiply by a rotation about body axis ``axis`` (0, 1, 2).
 
