@@ -26,7 +26,8 @@ carlson_rj(x, y, z, p)
 landen_chain(k, kc), landen_k(k, nlev, ks), landen_eval(u, k, kc, nlev, ks, kcs, K)
     :func:`jacobi_landen` split into the per-modulus part (chain of moduli, up to 16
     levels, one ``sqrt`` each) and the per-argument part; the exact flow keeps the chain
-    in its plan.
+    in its plan (``landen_chain_into``, ``landen_k_at``, ``landen_eval_at``: the chain
+    at an offset of an array).
 jacobi_landen(u, k, kc)
     ``(sn, cn, dn, j, K)`` of the *reduced* argument ``u - 2 j K`` in ``[-K, K]`` and
     ``K(k)``: descending Landen (Gauss) transformation (DLMF 22.7.1, A&S 16.12) down to
@@ -97,7 +98,7 @@ def carlson_rf(x, y, z):
     return (1.0 - 0.1 * e2 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / math.sqrt(a)
 
 
-@jit
+@jit(inner=True)
 def _rc1(e, y):
     """``R_C(1, y)`` with ``y = 1 + e > 0``, both supplied (each formed without cancellation).
 
@@ -172,7 +173,7 @@ def carlson_rj(x, y, z, p):
 # --------------------------------------------------------------------------------------
 
 
-@jit
+@jit(inner=True)
 def _landen_step(k, kc):
     """One descending Landen step ``(k, k') -> ((k/(1+k'))^2, 2 sqrt(k')/(1+k'))``.
 
@@ -222,16 +223,41 @@ def landen_chain(k, kc):
     return nlev, ks, kcs
 
 
+@jit(inner=True)
+def landen_chain_into(k, kc, out, ks0, kcs0):
+    """:func:`landen_chain` written into an array: ``out[ks0 + i] = k_{i+1}``,
+    ``out[kcs0 + i] = k'_i`` (``i < 16``); returns ``N``. The same numbers as the tuples
+    of :func:`landen_chain`, in a loop (the exact flow keeps them in its plan)."""
+    c = kc
+    kk = k
+    for i in range(_LANDEN_MAXDEPTH):
+        out[kcs0 + i] = c
+        kk, c = _landen_step(kk, c)
+        out[ks0 + i] = kk
+    nlev = 0
+    kk = k
+    while kk >= _LANDEN_KMIN and nlev < _LANDEN_MAXDEPTH:
+        kk = out[ks0 + nlev]
+        nlev += 1
+    return nlev
+
+
 @jit
 def landen_k(k, nlev, ks):
     """``K(k) = (pi/2)(1 + k_N^2/4) (1 + k_1) ... (1 + k_N)`` from a Landen chain.
 
     Relative error ~``N eps``; :func:`ellipk` (Carlson ``R_F``) is accurate to ~1 ulp.
     """
-    kb = ks[nlev - 1] if nlev > 0 else k
+    return landen_k_at(k, nlev, ks, 0)
+
+
+@jit(inner=True)
+def landen_k_at(k, nlev, a, ks0):
+    """:func:`landen_k` of the chain ``a[ks0], ..., a[ks0 + N - 1]``."""
+    kb = a[ks0 + nlev - 1] if nlev > 0 else k
     kq = _HALF_PI * (1.0 + 0.25 * kb * kb)
     for i in range(nlev):
-        kq *= 1.0 + ks[i]
+        kq *= 1.0 + a[ks0 + i]
     return kq
 
 
@@ -243,17 +269,24 @@ def landen_eval(u, k, kc, nlev, ks, kcs, kq):
     reduction modulo ``2K`` (pass ``R_F(0, k'^2, 1)`` when ``|u| > K`` for full accuracy,
     or ``0.0`` to use the chain product :func:`landen_k`). See :func:`jacobi_landen`.
     """
-    kb = ks[nlev - 1] if nlev > 0 else k
-    kcb = kcs[nlev] if nlev < _LANDEN_MAXDEPTH else math.sqrt(1.0 - kb * kb)
+    return landen_eval_at(u, k, kc, nlev, ks, 0, kcs, 0, kq)
+
+
+@jit(inner=True)
+def landen_eval_at(u, k, kc, nlev, ks, ks0, kcs, kcs0, kq):
+    """:func:`landen_eval` of the chain ``ks[ks0 + i]``, ``kcs[kcs0 + i]`` (one array may
+    hold both, e.g. the exact flow's plan)."""
+    kb = ks[ks0 + nlev - 1] if nlev > 0 else k
+    kcb = kcs[kcs0 + nlev] if nlev < _LANDEN_MAXDEPTH else math.sqrt(1.0 - kb * kb)
     k2 = kb * kb
     kqb = _HALF_PI * (1.0 + 0.25 * k2)  # K(k_N)
     if kq <= 0.0:
-        kq = landen_k(k, nlev, ks)
+        kq = landen_k_at(k, nlev, ks, ks0)
     # reduce at the top level (error ~ eps |u|), then descend z_{i+1} = z_i / (1 + k_{i+1})
     j = math.floor(u / (2.0 * kq) + 0.5)
     z = u - 2.0 * j * kq
     for i in range(nlev):
-        z = z / (1.0 + ks[i])
+        z = z / (1.0 + ks[ks0 + i])
     ar = abs(z)
     if ar <= 0.5 * kqb:
         s = math.sin(z)
@@ -273,8 +306,8 @@ def landen_eval(u, k, kc, nlev, ks, kcs, kq):
         d = kcb / dx
     # ascend (Gauss transformation, DLMF 22.7.1 with dn rewritten cancellation-free)
     for i in range(nlev - 1, -1, -1):
-        k1 = ks[i]
-        kcp = kcs[i]
+        k1 = ks[ks0 + i]
+        kcp = kcs[kcs0 + i]
         ss = s * s
         inv = 1.0 / (1.0 + k1 * ss)
         one_m_k1 = 2.0 * kcp / (1.0 + kcp)
@@ -360,7 +393,7 @@ def ellippi_complete(n, m, mc):
     return carlson_rf(0.0, mc, 1.0) + n / 3.0 * carlson_rj(0.0, mc, 1.0, 1.0 - n)
 
 
-@jit
+@jit(inner=True)
 def _reduce_phi(phi):
     """``phi = j pi + r`` with ``|r| <= pi/2``; returns ``(j, sin r, cos r)``."""
     j = math.floor(phi / math.pi + 0.5)

@@ -16,7 +16,8 @@ Kernels
 -------
 exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t) -> (w, x, y, z, m1, m2, m3)
     One state, one time; allocation-free (the per-trajectory constants live in a
-    tuple). Use as the ``exp(t X_T)`` stage of splitting methods.
+    plan on the kernel's stack, :data:`plan_buffer`). Use as the ``exp(t X_T)`` stage
+    of splitting methods.
 exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan)
     Writes the per-trajectory constants into ``plan`` (float64, ``PLAN_SIZE``).
 exact_flow_eval(plan, t) -> (w, x, y, z, m1, m2, m3)
@@ -70,7 +71,7 @@ import numpy as np
 
 from liebody._kernels._jit import jit
 
-from .elliptic import carlson_rf, carlson_rj, landen_chain, landen_eval, landen_k
+from .elliptic import carlson_rf, carlson_rj, landen_chain_into, landen_eval_at, landen_k_at
 from .quat import component, qaxis_rotation, qexp, qmul, qmul_increment
 
 #: The kernel's own round-off guard for raw moments: within 4 ulps the symmetric-body
@@ -89,17 +90,58 @@ K_NONE, K_STEADY, K_SYMMETRIC, K_ELLIPTIC, K_SEPARATRIX = 0.0, 1.0, 2.0, 3.0, 4.
 (_IP, _I2, _IO, _SP, _EPS, _LAMG, _WP, _CL, _BP, _B2, _BO, _SO, _K2, _KC2, _K, _KC, _N,
  _RN1, _KAPPA, _GAMMA, _S0, _C0, _D0, _PIC, _QP0, _QP1, _QP2, _QP3, _NLEV, _KQ) = range(9, 39)
 HEAD_SIZE = 39
-#: zeros that fill a head's unused slots (a head is one 39-tuple whatever its kind)
-_ZEROS_25 = (0.0,) * 25
-_ZEROS_27 = (0.0,) * 27
-_ZEROS_30 = (0.0,) * 30
 _KS = HEAD_SIZE
 _KCS = HEAD_SIZE + 16
 #: Length of a plan array (float64).
 PLAN_SIZE = HEAD_SIZE + 32
 
 
-@jit
+def _plan_buffer_py():
+    """:func:`plan_buffer` for the uncompiled kernels."""
+    return np.empty(PLAN_SIZE)
+
+
+def _plan_buffer_intrinsic():
+    from numba import types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+    from numba.np.arrayobj import make_array, populate_array
+
+    plan_type = types.Array(types.float64, 1, "C")
+
+    @intrinsic
+    def plan_buffer(typingctx):
+        """A plan (``PLAN_SIZE`` float64, uninitialised) on the calling kernel's stack,
+        as an array without a memory owner: no allocation, no reference count. It lives
+        as long as that kernel's call, so it must not be returned or stored."""
+
+        def codegen(context, builder, signature, args):
+            data = cgutils.alloca_once(builder, context.get_value_type(types.float64),
+                                       size=PLAN_SIZE)
+            ary = make_array(plan_type)(context, builder)
+            intp = context.get_value_type(types.intp)
+            populate_array(ary, data=data, shape=[intp(PLAN_SIZE)], strides=[intp(8)],
+                           itemsize=intp(8), meminfo=None)
+            return ary._getvalue()
+
+        return plan_type(), codegen
+
+    return plan_buffer
+
+
+def _make_plan_buffer():
+    from numba.core import config
+
+    return _plan_buffer_py if config.DISABLE_JIT else _plan_buffer_intrinsic()
+
+
+#: ``plan_buffer()``: the exact flow's plan on the stack of the calling kernel (one
+#: compiled :func:`_plan` and :func:`_eval` for every caller, and no allocation per
+#: :func:`exact_flow` call); ``np.empty`` when numba's JIT is off.
+plan_buffer = _make_plan_buffer()
+
+
+@jit(inner=True)
 def _cross_axis(ax, x, y, z):
     """``e_ax x (x, y, z)``."""
     if ax == 0:
@@ -109,18 +151,44 @@ def _cross_axis(ax, x, y, z):
     return -y, x, 0.0
 
 
-@jit
-def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
-    """Per-trajectory constants: ``(head, ks, kcs)``; docs/derivations.md, "Exact free-body flow".
+@jit(inner=True)
+def _steady(p, o1, o2, o3):
+    """A steady rotation at the rate ``omega = (o1, o2, o3)`` into the plan ``p``."""
+    p[_KIND] = K_STEADY
+    p[9] = o1
+    p[10] = o2
+    p[11] = o3
 
-    ``full`` also computes the complete ``Pi(n | k^2)`` (else left NaN and computed on
-    demand, only when ``|lambda t| > K``).
+
+@jit(inner=True)
+def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full, p):
+    """Per-trajectory constants into the plan ``p`` (``PLAN_SIZE``); docs/derivations.md,
+    "Exact free-body flow".
+
+    ``full`` (1.0 or 0.0, a float so that both callers share one compiled version) also
+    computes the complete ``Pi(n | k^2)`` and ``K(k)`` (else left NaN and computed on
+    demand, only when ``|lambda t| > K``). Unused slots are 0, an unused Landen chain
+    ``k = 0``, ``k' = 1``.
     """
-    _, ks, kcs = landen_chain(0.0, 1.0)  # placeholder chain (no levels)
+    for i in range(9, HEAD_SIZE):
+        p[i] = 0.0
+    for i in range(16):
+        p[_KS + i] = 0.0
+        p[_KCS + i] = 1.0
+    p[_KIND] = K_NONE
+    p[_G] = 0.0
+    p[_QW] = qw
+    p[_QX] = qx
+    p[_QY] = qy
+    p[_QZ] = qz
+    p[_M1] = m1
+    p[_M2] = m2
+    p[_M3] = m3
     amax = max(abs(m1), abs(m2), abs(m3))
     if amax == 0.0:
-        return (K_NONE, 0.0, qw, qx, qy, qz, m1, m2, m3) + _ZEROS_30, ks, kcs
+        return
     g = amax * math.sqrt((m1 / amax) ** 2 + (m2 / amax) ** 2 + (m3 / amax) ** 2)
+    p[_G] = g
     # along a principal axis (two components exactly zero): steady rotation
     nz = 0  # (explicit count: numpy bools would OR under NUMBA_DISABLE_JIT)
     if m1 != 0.0:
@@ -130,8 +198,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     if m3 != 0.0:
         nz += 1
     if nz == 1:
-        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3) + _ZEROS_27
-        return head, ks, kcs
+        _steady(p, m1 / I1, m2 / I2, m3 / I3)
+        return
     imax = max(I1, I2, I3)
     tol = SYM_RTOL * imax
     e12 = abs(I1 - I2) <= tol
@@ -139,8 +207,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     e23 = abs(I2 - I3) <= tol
     if (e12 and e13) or (e12 and e23) or (e13 and e23):
         ia = (I1 + I2 + I3) / 3.0
-        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / ia, m2 / ia, m3 / ia) + _ZEROS_27
-        return head, ks, kcs
+        _steady(p, m1 / ia, m2 / ia, m3 / ia)
+        return
     if e12 or e13 or e23:
         if e12:
             ax, ip_, is_ = 2, 0.5 * (I1 + I2), I3
@@ -149,9 +217,13 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
         else:
             ax, ip_, is_ = 0, 0.5 * (I2 + I3), I1
         ms = component(ax, m1, m2, m3)
-        rate = ms * (1.0 / is_ - 1.0 / ip_)
-        return (K_SYMMETRIC, g, qw, qx, qy, qz, m1, m2, m3, m1 / ip_, m2 / ip_, m3 / ip_,
-                     float(ax), rate) + _ZEROS_25, ks, kcs
+        p[_KIND] = K_SYMMETRIC
+        p[9] = m1 / ip_
+        p[10] = m2 / ip_
+        p[11] = m3 / ip_
+        p[12] = float(ax)
+        p[13] = ms * (1.0 / is_ - 1.0 / ip_)
+        return
     # ---- asymmetric body: relabel I_a < I_b < I_c (index bookkeeping only) ----
     if I1 < I2:
         if I2 < I3:
@@ -182,8 +254,8 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     D2 = x3 * x3 * (I32 / A3) - x1 * x1 * (I21 / A1)  # Delta_2
     if D1 <= 1e-290 or D3 <= 1e-290:
         # within ~1e-145 of the smallest/largest axis: steady rotation to round-off
-        head = (K_STEADY, g, qw, qx, qy, qz, m1, m2, m3, m1 / I1, m2 / I2, m3 / I3) + _ZEROS_27
-        return head, ks, kcs
+        _steady(p, m1 / I1, m2 / I2, m3 / I3)
+        return
     if D2 <= 0.0:  # case (i), polar axis = smallest moment (and the separatrix)
         ipc, ioc, Ip, Io, Dp, Do, I2p, Io2, xp, xo = i1, i3, A1, A3, D1, D3, I21, I32, x1, x3
     else:  # case (ii), polar axis = largest moment
@@ -202,16 +274,34 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     cx, cy, cz = _cross_axis(ipc, m1 / g, m2 / g, m3 / g)
     sc = 1.0 / math.sqrt(2.0 * apw)
     qp = qmul(qw, qx, qy, qz, apw * sc, sp * cx * sc, sp * cy * sc, sp * cz * sc)
+    p[_IP] = float(ipc)
+    p[_I2] = float(i2)
+    p[_IO] = float(ioc)
+    p[_SP] = sp
+    p[_EPS] = eps
+    p[_WP] = g / Ip
+    p[_BP] = bp
+    p[_B2] = b2
+    p[_BO] = bo
+    p[_SO] = so
+    p[_N] = n
+    p[_RN1] = rn1
+    p[_QP0] = qp[0]
+    p[_QP1] = qp[1]
+    p[_QP2] = qp[2]
+    p[_QP3] = qp[3]
     if D2 == 0.0:
         # separatrix: sn = tanh, cn = dn = sech; u0 from sinh u0 = sn0 / cn0
         lam = -sp * so * lam_abs
         s0 = -x2 / b2
         c0 = abs(xo) / bo
-        u0 = math.asinh(s0 / c0) if c0 > 0.0 else math.copysign(745.0, s0)
-        return (K_SEPARATRIX, g, qw, qx, qy, qz, m1, m2, m3,
-                     float(ipc), float(i2), float(ioc), sp, eps, lam * g, g / Ip, cc / lam,
-                     bp, b2, bo, so, 1.0, 0.0, 1.0, 0.0, n, rn1, 0.0, 0.0, u0, 0.0, 0.0,
-                     0.0, qp[0], qp[1], qp[2], qp[3], 0.0, 0.0), ks, kcs
+        p[_KIND] = K_SEPARATRIX
+        p[_LAMG] = lam * g
+        p[_CL] = cc / lam
+        p[_K2] = 1.0
+        p[_K] = 1.0
+        p[_S0] = math.asinh(s0 / c0) if c0 > 0.0 else math.copysign(745.0, s0)  # u0
+        return
     k2 = Dp * Io2 / (I2p * Do)
     kc2 = abs(D2) * I31 / (Do * I2p)
     ssum = k2 + kc2  # = 1 up to round-off; make the pair consistent
@@ -223,24 +313,29 @@ def _plan(I1, I2, I3, qw, qx, qy, qz, m1, m2, m3, full):
     s0 = -x2 / b2
     c0 = xo / bo
     r = math.sqrt(s0 * s0 + c0 * c0)
-    s0 /= r
-    c0 /= r
-    d0 = min(abs(xp) / bp, 1.0)
-    kappa = math.sqrt(-n / ((1.0 - n) * (k2 - n)))
-    gamma = math.sqrt(-n * (1.0 - n) * (k2 - n))
-    nlev, ks, kcs = landen_chain(k, kc)
-    pic = math.nan
-    kq = math.nan
-    if full:
+    p[_KIND] = K_ELLIPTIC
+    p[_LAMG] = lam * g
+    p[_CL] = cc / lam
+    p[_K2] = k2
+    p[_KC2] = kc2
+    p[_K] = k
+    p[_KC] = kc
+    p[_KAPPA] = math.sqrt(-n / ((1.0 - n) * (k2 - n)))
+    p[_GAMMA] = math.sqrt(-n * (1.0 - n) * (k2 - n))
+    p[_S0] = s0 / r
+    p[_C0] = c0 / r
+    p[_D0] = min(abs(xp) / bp, 1.0)
+    p[_NLEV] = float(landen_chain_into(k, kc, p, _KS, _KCS))
+    if full != 0.0:
         kq = carlson_rf(0.0, kc2, 1.0)
-        pic = kq + n / 3.0 * carlson_rj(0.0, kc2, 1.0, 1.0 - n)
-    return (K_ELLIPTIC, g, qw, qx, qy, qz, m1, m2, m3,
-                 float(ipc), float(i2), float(ioc), sp, eps, lam * g, g / Ip, cc / lam,
-                 bp, b2, bo, so, k2, kc2, k, kc, n, rn1, kappa, gamma, s0, c0, d0, pic,
-                 qp[0], qp[1], qp[2], qp[3], float(nlev), kq), ks, kcs
+        p[_KQ] = kq
+        p[_PIC] = kq + n / 3.0 * carlson_rj(0.0, kc2, 1.0, 1.0 - n)
+    else:
+        p[_KQ] = math.nan
+        p[_PIC] = math.nan
 
 
-@jit
+@jit(inner=True)
 def _place(h, xp, x2, xo):
     """The internal (polar, mid, other) components in the caller's axes."""
     ipc = int(h[_IP])
@@ -257,7 +352,7 @@ def _place(h, xp, x2, xo):
     return v0, v1, v2
 
 
-@jit
+@jit(inner=True)
 def _finish(h, phi, xp, x2, xo):
     """Map the internal unit momentum back to the caller's frame and build ``q``."""
     g = h[_G]
@@ -275,7 +370,7 @@ def _finish(h, phi, xp, x2, xo):
     return w, x, y, z, g * v0, g * v1, g * v2
 
 
-@jit
+@jit(inner=True)
 def _increment(h, s, c, d, vr, t):
     """State at time ``t`` in increment form, for a short step.
 
@@ -365,9 +460,9 @@ def _increment(h, s, c, d, vr, t):
     return w, x, y, z, m1 + g * u0, m2 + g * u1, m3 + g * u2
 
 
-@jit
-def _eval(h, ks, kcs, t):
-    """State at time ``t`` from the constants ``(h, ks, kcs)`` (tuples or arrays)."""
+@jit(inner=True)
+def _eval(h, t):
+    """State at time ``t`` from the plan ``h``."""
     kind = h[_KIND]
     if kind == K_ELLIPTIC:
         dl = h[_LAMG] * t
@@ -376,10 +471,10 @@ def _eval(h, ks, kcs, t):
         nlev = int(h[_NLEV])
         kq = h[_KQ]
         if kq != kq:  # not in the plan: the chain product suffices unless |dl| > K
-            kq = landen_k(h[_K], nlev, ks)
+            kq = landen_k_at(h[_K], nlev, h, _KS)
             if abs(dl) > kq:
                 kq = carlson_rf(0.0, h[_KC2], 1.0)
-        s, c, d, j, kq = landen_eval(dl, h[_K], h[_KC], nlev, ks, kcs, kq)
+        s, c, d, j, kq = landen_eval_at(dl, h[_K], h[_KC], nlev, h, _KS, h, _KCS, kq)
         vr = dl - 2.0 * j * kq
         if j == 0.0 and s * s <= 0.25:  # a short step (a splitting's): increment form
             return _increment(h, s, c, d, vr, t)
@@ -432,13 +527,11 @@ def _eval(h, ks, kcs, t):
         return _finish(h, phi, h[_SP] * bp * sech, -h[_B2] * th, h[_SO] * h[_BO] * sech)
     qw, qx, qy, qz = h[_QW], h[_QX], h[_QY], h[_QZ]
     m1, m2, m3 = h[_M1], h[_M2], h[_M3]
-    if kind == K_STEADY:
+    if kind == K_STEADY or kind == K_SYMMETRIC:
         ew, ex, ey, ez = qexp(t * h[9], t * h[10], t * h[11])
         w, x, y, z = qmul(qw, qx, qy, qz, ew, ex, ey, ez)
-        return w, x, y, z, m1, m2, m3
-    if kind == K_SYMMETRIC:
-        ew, ex, ey, ez = qexp(t * h[9], t * h[10], t * h[11])
-        w, x, y, z = qmul(qw, qx, qy, qz, ew, ex, ey, ez)
+        if kind == K_STEADY:
+            return w, x, y, z, m1, m2, m3
         ax = int(h[12])
         a = h[13] * t
         sh = math.sin(0.5 * a)
@@ -489,8 +582,9 @@ def exact_flow(I1, I2, I3, w, x, y, z, m1, m2, m3, t):
     one ``R_F`` and one ``R_J`` when ``|lambda t| > K``); trig only for symmetric
     bodies. Measured times: bench/README.md.
     """
-    h, ks, kcs = _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, False)
-    return _eval(h, ks, kcs, t)
+    plan = plan_buffer()
+    _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, 0.0, plan)
+    return _eval(plan, t)
 
 
 @jit
@@ -507,19 +601,14 @@ def exact_flow_plan(I1, I2, I3, w, x, y, z, m1, m2, m3, plan):
     (``PLAN_SIZE = 71``). Kind 1: ``plan[9:12] = omega``; kind 2: ``plan[9:12] =
     m0/I_perp``, ``plan[12]`` symmetry axis, ``plan[13]`` rate ``m_s (1/I_s - 1/I_perp)``.
     """
-    h, ks, kcs = _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, True)
-    for i in range(HEAD_SIZE):
-        plan[i] = h[i]
-    for i in range(16):
-        plan[_KS + i] = ks[i]
-        plan[_KCS + i] = kcs[i]
+    _plan(I1, I2, I3, w, x, y, z, m1, m2, m3, 1.0, plan)
     return plan
 
 
 @jit
 def exact_flow_eval(plan, t):
     """State ``(w, x, y, z, m1, m2, m3)`` at time ``t`` from a plan (:func:`exact_flow_plan`)."""
-    return _eval(plan[:HEAD_SIZE], plan[_KS:_KS + 16], plan[_KCS:_KCS + 16], t)
+    return _eval(plan, t)
 
 
 @jit
@@ -531,13 +620,10 @@ def exact_flow_times(I, q0, m0, t, q_out, m_out):
     independently (no accumulation) and costs only the per-time part of
     :func:`exact_flow` (no Landen chain). Measured times: bench/README.md.
     """
-    plan = np.empty(PLAN_SIZE)
-    exact_flow_plan(I[0], I[1], I[2], q0[0], q0[1], q0[2], q0[3], m0[0], m0[1], m0[2], plan)
-    h = plan[:HEAD_SIZE]
-    ks = plan[_KS:_KS + 16]
-    kcs = plan[_KCS:_KCS + 16]
+    plan = plan_buffer()
+    _plan(I[0], I[1], I[2], q0[0], q0[1], q0[2], q0[3], m0[0], m0[1], m0[2], 1.0, plan)
     for i in range(t.shape[0]):
-        r = _eval(h, ks, kcs, t[i])
+        r = _eval(plan, t[i])
         q_out[i, 0], q_out[i, 1], q_out[i, 2], q_out[i, 3] = r[0], r[1], r[2], r[3]
         m_out[i, 0], m_out[i, 1], m_out[i, 2] = r[4], r[5], r[6]
     return t.shape[0]  # a count, not the arrays: returning arrays calls back into Python
