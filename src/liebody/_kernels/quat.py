@@ -52,7 +52,7 @@ def qrotate_inv(w, x, y, z, vx, vy, vz):
     return qrotate(w, -x, -y, -z, vx, vy, vz)
 
 
-@jit(inline="always")
+@jit(inner=True)
 def component(axis, x, y, z):
     """``(x, y, z)[axis]`` for a vector kept in scalars (``axis`` in 0, 1, 2)."""
     if axis == 0:
