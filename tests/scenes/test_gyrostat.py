@@ -1,10 +1,12 @@
 """Gyrostats: the kinetic part H = (L - l)^T I^-1 (L - l) / 2, against DOP853 on
-L' = L x I^-1 (L - l), the invariants, the linear stability of a dual-spin satellite, and
-the refusals of the rigid body's flows."""
+L' = L x I^-1 (L - l), the invariants, the rounding of one axis turn against exact rational
+arithmetic, the linear stability of a dual-spin satellite, and the refusals of the rigid
+body's flows."""
 
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -61,6 +63,45 @@ def test_the_splitting_keeps_the_invariants():
     np.testing.assert_allclose(Ls, np.broadcast_to(Ls[0], Ls.shape), rtol=0, atol=1e-12)
     rigid = 0.5 * np.sum(tr.L**2 / I, axis=1)
     assert np.ptp(rigid) > 100 * np.ptp(H)  # the rigid body's energy is not the invariant
+
+
+def _spatial_exact(q, m):
+    """``R(q / |q|) m`` in exact rational arithmetic."""
+    w, x, y, z = (Fraction(float(c)) for c in q)
+    v = [Fraction(float(c)) for c in m]
+    rows = [(w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)),
+            (2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)),
+            (2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z)]
+    n2 = w * w + x * x + y * y + z * z
+    return [sum(r * c for r, c in zip(row, v, strict=True)) / n2 for row in rows]
+
+
+@pytest.mark.parametrize("turn", [(0.0, 0.1), (0.1, 1.5)])  # the half angle, both forms
+def test_one_axis_turn_rounds_the_spatial_momentum_about_once(turn):
+    """One gyrostat axis turn moves R(q) m (q normalised: the orientation) by its rounding
+    only. Exact rational arithmetic measures the move over 400 random states: its RMS is
+    0.30 eps |m| (a turn rounded about once per component; the plain form
+    c m_i + s m_j with q * (c, s e_k) gave 0.44 eps for small turns and 0.59 eps for
+    large ones), and |q| stays within a few ulps of 1."""
+    from liebody._kernels.flows import axis_flow_shifted
+
+    rng = np.random.default_rng(5)
+    rate, tau = 0.125, 0.1
+    moves = []
+    for _ in range(400):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        m = rng.normal(size=3)
+        axis = int(rng.integers(3))
+        half = rng.uniform(*turn) * rng.choice([-1.0, 1.0])
+        shift = float(m[axis] - half / (0.5 * tau * rate))
+        out = axis_flow_shifted(*q, *m, axis, rate, shift, tau)
+        assert abs(math.hypot(*out[:4]) - 1.0) < 2e-15
+        before, after = _spatial_exact(q, m), _spatial_exact(out[:4], out[4:])
+        moves.append(math.sqrt(float(sum((a - b) ** 2 for a, b in zip(after, before,
+                                                                       strict=True))))
+                     / float(np.linalg.norm(m)))
+    assert math.sqrt(np.mean(np.square(moves))) < 0.36 * np.finfo(float).eps
 
 
 def test_a_rotor_stabilises_the_intermediate_axis():

@@ -21,6 +21,7 @@ import math
 
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import (
+    _two_sum,
     component,
     increment_defect,
     qaxis_rotation,
@@ -54,6 +55,13 @@ from liebody._kernels.torque import damping_rate, torque_value
 #: form's norm error is of order ``eps sin^2`` per step, the figures of the long-horizon
 #: benchmark, and the hot paths of tops and symmetric bodies pay nothing more
 LARGE_INCREMENT = 0.25
+#: the gyrostat's axis turn (:func:`axis_flow_shifted`) is evaluated error-free from this
+#: squared half angle on (a turn of 0.2 rad or more), where the increment's own rounding,
+#: about ``2 |half|`` ulps, is no longer small against the sum's
+COMPENSATED_TURN = 0.01
+#: the gyrostat's axis turn scales ``q`` onto the unit sphere once the computed
+#: ``| |q|^2 - 1 |`` passes this (a few ulps: the sum's own rounding stays below it)
+UNIT_SLACK = 1e-15
 #: DMV iteration limits
 DMV_MAX_FIXED_POINT = 60
 DMV_MAX_NEWTON = 30
@@ -86,9 +94,123 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     driver passes ``l_k`` at the midpoint of the stage's clock interval
     (:func:`rotor_at`), which makes the flow exact: ``m_k`` is constant, so the angle is
     ``rate * integral of (m_k - l_k(t)) dt``.
+
+    Rounding (the spatial ``L`` is kept to a random walk of roundings, so each one counts):
+    a small turn is applied in increment form, ``x + ((cos - 1) x + sin y)`` (as
+    :func:`axis_flow_recurring`), so that each component is rounded about once, and ``q``
+    is scaled back to the unit sphere once ``| |q|^2 - 1 |`` passes :data:`UNIT_SLACK`
+    (``|q|`` stays within a few ulps of 1 instead of a random walk, and the scaling
+    rarely adds a rounding); a turn of 0.2 rad or more (:data:`COMPENSATED_TURN`) is
+    evaluated error-free (:func:`_turn_compensated`). A zero ``shift`` is the rigid body's
+    term and takes :func:`axis_flow`'s arithmetic, so that a rotor-free body of a
+    gyrostat ensemble equals its one-body (rigid) run bit for bit.
     """
-    return _axis_turn(w, x, y, z, m1, m2, m3, axis,
-                      0.5 * tau * rate * (component(axis, m1, m2, m3) - shift))
+    half = 0.5 * tau * rate * (component(axis, m1, m2, m3) - shift)
+    if shift == 0.0:  # the rigid body's term: its flow, bit for bit (ensembles mix them)
+        return _axis_turn(w, x, y, z, m1, m2, m3, axis, half)
+    if half * half >= COMPENSATED_TURN:
+        return _turn_compensated(w, x, y, z, m1, m2, m3, axis, half)
+    s2 = math.sin(half)
+    c2 = math.cos(half)
+    cm2 = -s2 * s2 / (1.0 + c2)  # cos(half) - 1 (c2 > 0.99 here)
+    cm = -2.0 * s2 * s2  # cos(2 half) - 1
+    s = 2.0 * s2 * c2
+    if axis == 0:
+        m2, m3 = m2 + (cm * m2 + s * m3), m3 + (cm * m3 - s * m2)
+        w, x, y, z = qmul_increment(w, x, y, z, cm2, s2, 0.0, 0.0)
+    elif axis == 1:
+        m3, m1 = m3 + (cm * m3 + s * m1), m1 + (cm * m1 - s * m3)
+        w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, s2, 0.0)
+    else:
+        m1, m2 = m1 + (cm * m1 + s * m2), m2 + (cm * m2 - s * m1)
+        w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, 0.0, s2)
+    d = (w * w + x * x) + (y * y + z * z) - 1.0
+    if abs(d) > UNIT_SLACK:
+        k = -0.5 * d
+        w, x, y, z = w + k * w, x + k * x, y + k * y, z + k * z
+    return w, x, y, z, m1, m2, m3
+
+
+@jit(inline="always")
+def _two_product(a, b):
+    """``a * b`` as an exact sum ``p + e`` (Dekker's error-free product, Veltkamp's split,
+    as ``quat._two_square``)."""
+    p = a * b
+    ca = 134217729.0 * a  # 2^27 + 1
+    ah = ca - (ca - a)
+    al = a - ah
+    cb = 134217729.0 * b
+    bh = cb - (cb - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+@jit(inline="always")
+def _dot2(a, b, c, d):
+    """``a b + c d`` as ``s + e`` with ``e`` the error of ``s`` to within a few ulps of ``e``
+    (error-free products and sum: Ogita, Rump & Oishi, SIAM J. Sci. Comput. 26 (2005) 1955)."""
+    p1, e1 = _two_product(a, b)
+    p2, e2 = _two_product(c, d)
+    s, e3 = _two_sum(p1, p2)
+    return s, e1 + (e2 + e3)
+
+
+@jit(inner=True)
+def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
+    """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis``, each
+    component rounded about once (error-free products and sums: Dekker 1971, Knuth 1997).
+
+    The rounded pair ``(c, s) = (cos half, sin half)`` defines the turn: ``q`` is multiplied
+    by ``(c, s e_k) / |(c, s)|`` and ``m`` is turned by its double angle,
+    ``((c^2 - s^2), 2 c s) / (c^2 + s^2)``, both in double-length arithmetic (error-free
+    products and sums), so that ``q`` and ``m`` turn by the same angle to far below
+    round-off; ``q`` is also scaled onto the unit sphere (its own ``|q|^2 - 1`` computed
+    error-free). A large turn's plain form rounds each component several times, each
+    rounding of the order of the component.
+    """
+    s2 = math.sin(half)
+    c2 = math.cos(half)
+    hc, lc = _two_product(c2, c2)
+    hs, ls = _two_product(s2, s2)
+    nn, en = _two_sum(hc, hs)
+    d = (nn - 1.0) + (en + (lc + ls))  # c^2 + s^2 - 1 (nn - 1 exact: Sterbenz)
+    ch, e = _two_sum(hc, -hs)
+    cl = (e + (lc - ls)) - d * ch  # (c^2 - s^2) / (1 + d) = ch + cl
+    sc, lsc = _two_product(s2, c2)
+    sh = 2.0 * sc
+    sl = 2.0 * lsc - d * sh  # 2 c s / (1 + d) = sh + sl
+    if axis == 0:
+        a, b = m2, m3
+    elif axis == 1:
+        a, b = m3, m1
+    else:
+        a, b = m1, m2
+    ha, ea = _dot2(ch, a, sh, b)
+    hb, eb = _dot2(ch, b, -sh, a)
+    a, b = ha + (ea + (cl * a + sl * b)), hb + (eb + (cl * b - sl * a))
+    if axis == 0:
+        m2, m3 = a, b
+    elif axis == 1:
+        m3, m1 = a, b
+    else:
+        m1, m2 = a, b
+    qs, qe = _two_product(w, w)
+    for comp in (x, y, z):
+        p, pe = _two_product(comp, comp)
+        qs, e2 = _two_sum(qs, p)
+        qe += e2 + pe
+    k = -0.5 * (((qs - 1.0) + qe) + d)  # 1 / |q (c, s)| - 1, to first order
+    if axis == 0:
+        pw, px = _dot2(c2, w, -s2, x), _dot2(c2, x, s2, w)
+        py, pz = _dot2(c2, y, s2, z), _dot2(c2, z, -s2, y)
+    elif axis == 1:
+        pw, px = _dot2(c2, w, -s2, y), _dot2(c2, x, -s2, z)
+        py, pz = _dot2(c2, y, s2, w), _dot2(c2, z, s2, x)
+    else:
+        pw, px = _dot2(c2, w, -s2, z), _dot2(c2, x, s2, y)
+        py, pz = _dot2(c2, y, -s2, x), _dot2(c2, z, s2, w)
+    return (pw[0] + (pw[1] + k * pw[0]), px[0] + (px[1] + k * px[0]),
+            py[0] + (py[1] + k * py[0]), pz[0] + (pz[1] + k * pz[0]), m1, m2, m3)
 
 
 @jit(inline="always")
