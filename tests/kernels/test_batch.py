@@ -531,11 +531,10 @@ def test_the_block_loops_compile_to_packed_instructions():
 
     buf = np.zeros(B.N_ROWS * B.BLOCK)
     p = np.ones((6, B.BLOCK))
-    par = p[None]  # (stages, slots, BLOCK): the rates and a kick's arm in stage 0
+    par = p[None]  # (stages, slots, BLOCK): the rates, a kick's arm or moments in stage 0
     idx = np.arange(B.BLOCK)
     mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 15)), idx, np.zeros(1),
           np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64))
-    blocks = np.ones((B.BLOCK, 16))  # per-body inertia, one source
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
     for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
@@ -545,7 +544,7 @@ def test_the_block_loops_compile_to_packed_instructions():
                      (B._diagnose_block, (buf, 3, mc, 0.0)),
                      (B._project_block, (buf, 3, True, 0, par, 0, 0.1)),
                      (gravity_gradient.torque_block,
-                      (np.ones(4), blocks, idx, 16, buf, rows, np.zeros((6, B.BLOCK))))):
+                      (np.ones(4), par, 0, 16, buf, rows, np.zeros((6, B.BLOCK))))):
         opts = {k: v for k, v in fn.targetoptions.items() if k not in ("cache", "nopython")}
         fresh = numba.njit(**opts)(fn.py_func)
         fresh(*args)

@@ -130,13 +130,10 @@ nothing is missed between checks.)
 from __future__ import annotations
 
 import math
-from fractions import Fraction
 
 import numpy as np
-from numba import types
-from numba.extending import intrinsic, overload
 
-from liebody._kernels._jit import jit, overload_options
+from liebody._kernels._jit import jit
 from liebody._kernels.flows import DMV_MAX_FIXED_POINT, LARGE_INCREMENT, dmv_step
 from liebody._kernels.stages import (
     AXIS,
@@ -166,6 +163,16 @@ from liebody._kernels.stages import (
     TORQUE_GRAVITY,
     TORQUE_NONE,
     family_tag,
+)
+from liebody._kernels.trig import (  # noqa: F401  (fma, sincos_array: part of this module's API)
+    _cos_poly,
+    _quadrant,
+    _reduce,
+    _sin_poly,
+    fma,
+    sincos,
+    sincos_array,
+    sincos_small,
 )
 from liebody._models import dispatch
 
@@ -211,7 +218,7 @@ A10, A20, A30 = R_A * BLOCK, (R_A + 1) * BLOCK, (R_A + 2) * BLOCK
 CONV0 = R_CONV * BLOCK
 
 # per-stage parameter slots of the gathered parameters (stage, slot, body)
-N_SLOTS = 6  # rotations: rate; kicks: c1, c2, c3 (gravity), torque bound; DMV: I1..f3
+N_SLOTS = 6  # rotations: rate; kicks: the model's 3 block constants, torque bound; DMV: I1..f3
 
 # ------------------------------------------------------------------ the supported kinds
 #: family -> the kinds its SIMD driver runs
@@ -248,149 +255,6 @@ def simd_supports(plan, torque_code) -> bool:
     if not kinds or any(k not in SIMD_FAMILIES[family] for k in kinds):
         return False
     return not (KICK in kinds and not 0 < int(torque_code) <= MAX_MODEL_CODE)
-
-
-# ------------------------------------------------------------------ fused multiply-add
-def fma(a, b, c):
-    """``a * b + c`` rounded once (IEEE fusedMultiplyAdd).
-
-    Compiled: the ``llvm.fma`` intrinsic (one ``vfmadd`` instruction, packed in the
-    vectorised loops). Uncompiled (``NUMBA_DISABLE_JIT=1``): exact rational arithmetic
-    rounded once, so the kernels give the same numbers either way.
-    """
-    if math.isfinite(a) and math.isfinite(b) and math.isfinite(c):
-        if a == 0.0 or b == 0.0:
-            return a * b + c  # exact: the product is a signed zero
-        r = Fraction(a) * Fraction(b) + Fraction(c)
-        if r == 0:
-            return 0.0
-        try:
-            return float(r)
-        except OverflowError:
-            return math.copysign(math.inf, r)
-    return a * b + c
-
-
-@intrinsic
-def _llvm_fma(typingctx, a, b, c):
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return sig, codegen
-
-
-@overload(fma, jit_options=overload_options())
-def _fma_overload(a, b, c):
-    return lambda a, b, c: _llvm_fma(a, b, c)
-
-
-# ------------------------------------------------------------------ fast sin and cos
-TWO_OVER_PI = 6.36619772367581382433e-01
-PIO2_1 = 1.57079632673412561417e+00  # first 33 bits of pi/2
-PIO2_2 = 6.07710050630396597660e-11  # next 33 bits
-PIO2_2T = 2.02226624879595063154e-21  # pi/2 - (PIO2_1 + PIO2_2)
-R_CLAMP = 0.8  # bound on the reduced argument (only reached for |x| beyond 2^52)
-# fdlibm __kernel_sin: sin x = x + x^3 (S1 + x^2 S2 + ... + x^10 S6), |x| <= pi/4
-S1 = -1.66666666666666324348e-01
-S2 = 8.33333333332248946124e-03
-S3 = -1.98412698298579493134e-04
-S4 = 2.75573137070700676789e-06
-S5 = -2.50507602534068634195e-08
-S6 = 1.58969099521155010221e-10
-# fdlibm __kernel_cos: cos x = 1 - x^2/2 + x^4 (C1 + x^2 C2 + ... + x^10 C6)
-C1 = 4.16666666666666019037e-02
-C2 = -1.38888888888741095749e-03
-C3 = 2.48015872894767294178e-05
-C4 = -2.75573143513906633035e-07
-C5 = 2.08757232129817482790e-09
-C6 = -1.13596475577881948265e-11
-
-
-@jit(inline="always")
-def _sin_poly(z):
-    """``(sin r / r - 1) / r^2`` as a polynomial in ``z = r^2`` (Horner, FMA)."""
-    return fma(z, fma(z, fma(z, fma(z, fma(z, S6, S5), S4), S3), S2), S1)
-
-
-@jit(inline="always")
-def _cos_poly(z):
-    """``cos r - 1 = z (-1/2 + z p(z))``: this is ``p``."""
-    return fma(z, fma(z, fma(z, fma(z, fma(z, C6, C5), C4), C3), C2), C1)
-
-
-@jit(inline="always")
-def _normalise(s, cm):
-    """One Newton step on the pair ``(s, 1 + cm)`` towards ``s^2 + (1 + cm)^2 = 1``,
-    in increment form (``cm`` small, kept to full relative accuracy)."""
-    g = 0.5 * fma(s, s, cm * (2.0 + cm))
-    return fma(-s, g, s), fma(-(1.0 + cm), g, cm)
-
-
-@jit(inline="always")
-def sincos_small(x):
-    """``(sin x, cos x, cos x - 1)`` for ``|x| <= 0.78``, normalised (no range reduction)."""
-    z = x * x
-    s = fma(x, z * _sin_poly(z), x)
-    cm = z * fma(z, _cos_poly(z), -0.5)
-    s, cm = _normalise(s, cm)
-    return s, 1.0 + cm, cm
-
-
-@jit(inline="always")
-def _reduce(x):
-    """``x = k pi/2 + r``: ``(k, r)``, Cody–Waite in three parts, ``r`` clamped."""
-    k = np.floor(x * TWO_OVER_PI + 0.5)
-    r = fma(-k, PIO2_2T, fma(-k, PIO2_2, fma(-k, PIO2_1, x)))
-    r = R_CLAMP if r > R_CLAMP else r  # keeps NaN
-    r = -R_CLAMP if r < -R_CLAMP else r
-    return k, r
-
-
-@jit(inline="always")
-def _quadrant(k, s, c):
-    """``(sin x, cos x)`` from ``(sin r, cos r)`` and the quadrant ``k`` (exact)."""
-    kq = k - 4.0 * np.floor(0.25 * k)  # k mod 4, exact
-    hi = np.floor(0.5 * kq)  # kq in {2, 3}
-    odd = kq - 2.0 * hi  # kq in {1, 3}
-    sx = (c if odd != 0.0 else s) * (1.0 - 2.0 * hi)
-    cx = (s if odd != 0.0 else c) * (1.0 - 2.0 * abs(odd - hi))
-    return kq, sx, cx
-
-
-@jit(inline="always")
-def sincos(x):
-    """``(sin x, cos x, cos x - 1)`` for any ``x``, normalised; equal to
-    :func:`sincos_small` bit for bit where ``|x| < pi/4``.
-
-    In the first quadrant (``k = 0 mod 4``) the pair is normalised in increment form,
-    ``(s, cm)``; elsewhere ``cos x`` is not near 1 and the plain pair ``(s, c)`` is
-    normalised (``cm = c - 1`` is then only needed to absolute accuracy).
-    """
-    k, r = _reduce(x)
-    z = r * r
-    s = fma(r, z * _sin_poly(z), r)
-    cm = z * fma(z, _cos_poly(z), -0.5)
-    kq, sx, cx = _quadrant(k, s, 1.0 + cm)
-    first = kq == 0.0
-    g = 0.5 * (fma(s, s, cm * (2.0 + cm)) if first else fma(sx, sx, fma(cx, cx, -1.0)))
-    sx = fma(-sx, g, sx)
-    cm = fma(-(1.0 + cm), g, cm)
-    cx = fma(-cx, g, cx)
-    cmx = cm if first else cx - 1.0
-    cx = 1.0 + cm if first else cx
-    return sx, cx, cmx
-
-
-@jit
-def sincos_array(x, s, c, cm, small):
-    """:func:`sincos` (or :func:`sincos_small`) of every element of ``x`` (tests)."""
-    for i in range(x.shape[0]):
-        if small:
-            s[i], c[i], cm[i] = sincos_small(x[i])
-        else:
-            s[i], c[i], cm[i] = sincos(x[i])
 
 
 # ------------------------------------------------------------------ rotation kernels
@@ -580,16 +444,17 @@ def _add_kick(buf, i, n1, n2, n3, tau):
 
 
 @jit
-def _model_kick_block(buf, mc, j, nb, t, tau):
+def _model_kick_block(buf, mc, par, j, nb, t, tau):
     """Any model's kick ``m += tau N(t, q, m)`` over a block through the one dispatch on
     model codes (a model's vectorised block kernel, or body by body; the scalar
     ``_explicit_kick``'s arithmetic); a torque that is not finite flags ``STATUS_TORQUE``.
-    ``mc`` is the block's model context (see ``_run_block``)."""
+    ``mc`` is the block's model context (see ``_run_block``), ``par`` the gathered
+    parameters (the model's ``block_constants`` in ``par[j, 0..2]``)."""
     code, addr, mpar, params, idx, scratch = mc[0], mc[2], mc[3], mc[4], mc[5], mc[6]
     # the time-only part (the sources' positions) once for the block: models share it
     dispatch.prepare(code, mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]], t, scratch)
     out = mc[7]
-    dispatch.torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, buf,
+    dispatch.torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, buf,
                           (W0, X0, Y0, Z0, M10, M20, M30), out, mc[8], mc[9])
     for b in range(nb):
         _add_kick(buf, b, out[0, b], out[1, b], out[2, b], tau)
@@ -850,7 +715,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
             t += clock[0] * h
         for j in range(j0, last):
             if models and kinds[j] == KICK:
-                _model_kick_block(buf, mc, j, nb, t, coefs[j] * h)
+                _model_kick_block(buf, mc, par, j, nb, t, coefs[j] * h)
             else:
                 _apply(family, kinds[j], axes[j], fast[j], buf, par, j, nb, coefs[j] * h)
             t += clock[j] * h
@@ -861,7 +726,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
             tau = coefs[last] * h
             pending = False
         if models and kinds[last] == KICK:
-            _model_kick_block(buf, mc, last, nb, t, tau)
+            _model_kick_block(buf, mc, par, last, nb, t, tau)
         else:
             _apply(family, kinds[last], axes[last], fast[last], buf, par, last, nb, tau)
         if diag:
@@ -923,8 +788,9 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
 # ------------------------------------------------------------------ the drivers
 @jit(inline="always")
 def _gather(kinds, params, mpar, idx, nb, par):
-    """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a gravity
-    kick's from the model's parameter blocks ``mpar``, shared or per body)."""
+    """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a kick's from
+    the model's parameter blocks ``mpar``, shared or per body: the model's
+    ``dispatch.block_constants`` and torque bound)."""
     shared = mpar.shape[0] == 1
     pshared = params.shape[0] == 1
     for j in range(kinds.shape[0]):
@@ -940,8 +806,8 @@ def _gather(kinds, params, mpar, idx, nb, par):
                 par[j, 5, b] = (I1 - I2) / I3
             elif k == KICK:
                 code = int(row[P_TORQUE])
-                if code == TORQUE_GRAVITY:
-                    par[j, 0, b], par[j, 1, b], par[j, 2, b] = mrow[0], mrow[1], mrow[2]
+                c1, c2, c3 = dispatch.block_constants(code, mrow)
+                par[j, 0, b], par[j, 1, b], par[j, 2, b] = c1, c2, c3
                 par[j, 3, b] = dispatch.torque_bound(code, mrow)
             else:
                 par[j, 0, b] = row[P_RATE]

@@ -111,9 +111,10 @@ def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
 
 
-@jit
+@jit(inline="always")
 def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
-    """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)``."""
+    """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)`` (inlined: as
+    a call it cost a gravity-gradient step about 10 %)."""
     n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE

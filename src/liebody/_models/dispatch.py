@@ -149,16 +149,30 @@ def torque_prepared(code, mp, scratch, p, addr, t, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def torque_block(code, mpar, params, j, addr, t, scratch, idx, nb, state, rows, out, U, R):
+def block_constants(code, mp):
+    """Three numbers of a body's parameter block ``mp`` that model ``code``'s block kernels
+    read from the SIMD drivers' gathered parameters (gathered once per block, not per kick):
+    uniform gravity's weight arm, the gravity gradient's moments; zeros for the others."""
+    if code == uniform_gravity.CODE:
+        return mp[0], mp[1], mp[2]
+    if code == gravity_gradient.CODE:
+        return gravity_gradient.block_constants(mp)
+    return 0.0, 0.0, 0.0
+
+
+@jit
+def torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, state, rows, out, U,
+                 R):
     """:func:`torque_prepared` for the ``nb`` bodies ``idx`` of a SIMD block: body ``b``'s
-    ``w, x, y, z, m1, m2, m3`` at ``state[rows[k] + b]``, its torque into ``out[0..2, b]``.
+    ``w, x, y, z, m1, m2, m3`` at ``state[rows[k] + b]``, its torque into ``out[0..2, b]``
+    (``par[j, 0..2, b]``: its :func:`block_constants`).
     A model with a vectorised block kernel runs it; a user torque is called once for the
     block through its block callback (``addr``: ``user_torque.adapt_user_block``; ``U``
     ``(BLOCK, N_CONTROLS)`` and ``R`` ``(BLOCK,)`` int64 are work arrays for the bodies'
     controls and parameter rows); any other is evaluated body by body (``params[i, j]``:
     body ``i``'s row of stage ``j``, ``(1, s, P)`` when shared)."""
     if code == gravity_gradient.CODE:
-        gravity_gradient.torque_block(scratch, mpar, idx, nb, state, rows, out)
+        gravity_gradient.torque_block(scratch, par, j, nb, state, rows, out)
         return
     if code == user_torque.CODE and addr != 0:
         mshared = mpar.shape[0] == 1

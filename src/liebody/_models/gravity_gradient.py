@@ -33,8 +33,17 @@ HEAD = 4  # I1, I2, I3, K
 
 
 @jit(inline="always")
-def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, GM):
-    """One source's torque: ``3 GM / r^5 (r_b x I r_b)`` with ``r_b = R(q)^T (X, Y, Z)``."""
+def _strength(GM, X, Y, Z):
+    """``3 GM / r^5`` of a source at ``(X, Y, Z)`` (inertial frame): the time-only factor of
+    its torque (``|R(q)^T r| = |r|`` for a unit ``q``)."""
+    rr = X * X + Y * Y + Z * Z
+    return 3.0 * GM / (rr * rr * math.sqrt(rr))
+
+
+@jit(inline="always")
+def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, f):
+    """One source's torque ``f (r_b x I r_b)``, ``r_b = R(q)^T (X, Y, Z)``, ``f`` its
+    :func:`_strength`."""
     # R(q)^T v = v + 2 u x (u x v + w v) with u = -(x, y, z): quat.qrotate_inv, written out
     # so that the SIMD block loop holds no call (LLVM vectorises it)
     tx = 2.0 * (-y * Z + z * Y)
@@ -43,8 +52,6 @@ def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, GM):
     r1 = X + w * tx + (-y * tz + z * ty)
     r2 = Y + w * ty + (-z * tx + x * tz)
     r3 = Z + w * tz + (-x * ty + y * tx)
-    rr = r1 * r1 + r2 * r2 + r3 * r3
-    f = 3.0 * GM / (rr * rr * math.sqrt(rr))
     a1, a2, a3 = I1 * r1, I2 * r2, I3 * r3
     return f * (r2 * a3 - r3 * a2), f * (r3 * a1 - r1 * a3), f * (r1 * a2 - r2 * a1)
 
@@ -55,7 +62,7 @@ def torque(t, w, x, y, z, mp):
     k = HEAD
     for _ in range(int(mp[3])):
         X, Y, Z = orbit.position(mp, k + 1, t)
-        a, b, c = _pull(w, x, y, z, mp[0], mp[1], mp[2], X, Y, Z, mp[k])
+        a, b, c = _pull(w, x, y, z, mp[0], mp[1], mp[2], X, Y, Z, _strength(mp[k], X, Y, Z))
         t1 += a
         t2 += b
         t3 += c
@@ -65,7 +72,7 @@ def torque(t, w, x, y, z, mp):
 
 @jit
 def scratch_size(mp):
-    """Numbers :func:`prepare` writes: the position and ``GM`` of every source."""
+    """Numbers :func:`prepare` writes: the position and :func:`_strength` of every source."""
     return 4 * int(mp[3])
 
 
@@ -77,7 +84,7 @@ def prepare(t, mp, scratch):
     for s in range(int(mp[3])):
         X, Y, Z = orbit.position(mp, k + 1, t)
         scratch[4 * s], scratch[4 * s + 1], scratch[4 * s + 2] = X, Y, Z
-        scratch[4 * s + 3] = mp[k]
+        scratch[4 * s + 3] = _strength(mp[k], X, Y, Z)
         k += 1 + orbit.size(mp, k + 1)
 
 
@@ -95,27 +102,29 @@ def torque_prepared(scratch, w, x, y, z, mp):
 
 
 @jit
-def torque_block(scratch, mpar, idx, nb, state, rows, work):
-    """:func:`torque_prepared` for ``nb`` bodies ``idx`` at once (the SIMD drivers): the
-    state of body ``b`` at ``state[rows[0] + b]`` (w) .. ``state[rows[3] + b]`` (z), the
-    torques into ``work[0..2, b]`` (``work[3..5]``: the bodies' moments, gathered first);
+def block_constants(mp):
+    """The numbers of a body's parameter block that :func:`torque_block` reads from the
+    gathered parameters (once per block, not per kick): its moments ``I1, I2, I3``."""
+    return mp[0], mp[1], mp[2]
+
+
+@jit
+def torque_block(scratch, par, j, nb, state, rows, work):
+    """:func:`torque_prepared` for ``nb`` bodies at once (the SIMD drivers): the state of
+    body ``b`` at ``state[rows[0] + b]`` (w) .. ``state[rows[3] + b]`` (z), its moments
+    at ``par[j, 0..2, b]`` (:func:`block_constants`), the torques into ``work[0..2, b]``;
     sources outermost, so that the body loop vectorises, and each body's sum in the
     scalar's order (bit for bit)."""
-    shared = mpar.shape[0] == 1
     w0, x0, y0, z0 = rows[0], rows[1], rows[2], rows[3]
-    for b in range(nb):
-        i = 0 if shared else idx[b]
-        work[3, b] = mpar[i, 0]
-        work[4, b] = mpar[i, 1]
-        work[5, b] = mpar[i, 2]
+    for b in range(nb):  # (not "= a" for the first source: that branch stops the vectoriser)
         work[0, b] = 0.0
         work[1, b] = 0.0
         work[2, b] = 0.0
-    for s in range(int(mpar[0 if shared else idx[0], 3])):
-        X, Y, Z, GM = scratch[4 * s], scratch[4 * s + 1], scratch[4 * s + 2], scratch[4 * s + 3]
+    for s in range(scratch.shape[0] // 4):
+        X, Y, Z, f = scratch[4 * s], scratch[4 * s + 1], scratch[4 * s + 2], scratch[4 * s + 3]
         for b in range(nb):
             a1, a2, a3 = _pull(state[w0 + b], state[x0 + b], state[y0 + b], state[z0 + b],
-                               work[3, b], work[4, b], work[5, b], X, Y, Z, GM)
+                               par[j, 0, b], par[j, 1, b], par[j, 2, b], X, Y, Z, f)
             work[0, b] += a1
             work[1, b] += a2
             work[2, b] += a3

@@ -8,7 +8,7 @@ An orbit is a row of numbers whose first is its kind:
   pericentre) and ``Q`` (90 degrees ahead in the direction of motion) of the orbital
   plane in the inertial frame. The position is ``a (cos E - e) P + b sin E Q`` with
   Kepler's equation ``E - e sin E = M``, ``M = M0 + n t``; a circular orbit is ``e = 0``
-  (``E = M``).
+  (``E = M``, its sine and cosine by one polynomial call).
 * :data:`TABLE` (``TABLE_HEAD + 4 m`` numbers), ``(TABLE, m, p, t_first, t_last,
   r_low)`` then the ``m`` sample times (increasing), and the ``m`` values of ``x``, of
   ``y`` and of ``z``: positions sampled at given times, interpolated by the Lagrange
@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 
 from liebody._kernels._jit import jit
+from liebody._kernels.trig import sincos
 
 #: the kinds of orbit (a row's first number)
 KEPLER = 0
@@ -99,6 +100,17 @@ def eccentric_anomaly(M, e):
     return sign * E
 
 
+@jit(inline="always")
+def _circular_position(orb, k, t):
+    """A circular orbit's position (``e = 0``, ``E = M``): ``sin M`` and ``cos M`` by one
+    polynomial call (``trig.sincos``: Cody–Waite reduction, a few ulps) instead of two libm
+    calls, a third of the cost."""
+    s, c, _ = sincos(orb[k + 5] + orb[k + 2] * t)
+    u, v = orb[k + 3] * c, orb[k + 4] * s
+    return (u * orb[k + 6] + v * orb[k + 9], u * orb[k + 7] + v * orb[k + 10],
+            u * orb[k + 8] + v * orb[k + 11])
+
+
 @jit
 def _kepler_position(orb, k, t):
     e, n, a, b = orb[k + 1], orb[k + 2], orb[k + 3], orb[k + 4]
@@ -164,15 +176,17 @@ def _table_position(orb, k, t):
     return x, y, z
 
 
-@jit
+@jit(inline="always")
 def position(orb, k, t):
     """The position at time ``t`` of the orbit whose row starts at ``orb[k]``."""
     if orb[k] == TABLE:
         return _table_position(orb, k, t)
+    if orb[k + 1] == 0.0:
+        return _circular_position(orb, k, t)
     return _kepler_position(orb, k, t)
 
 
-@jit
+@jit(inline="always")
 def size(orb, k):
     """The length of the orbit row that starts at ``orb[k]``."""
     if orb[k] == TABLE:
