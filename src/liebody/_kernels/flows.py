@@ -49,6 +49,7 @@ from liebody._kernels.stages import (
     TORQUE_NONE,
 )
 from liebody._kernels.torque import damping_rate, torque_value
+from liebody._kernels.trig import fma, sincos_small
 
 #: a recurring rotation whose squared half angle is at least this (a turn of 1 rad or more
 #: per step) keeps ``q`` on the unit sphere (``qproject_unit``); below, the increment
@@ -97,22 +98,22 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
 
     Rounding (the spatial ``L`` is kept to a random walk of roundings, so each one counts):
     a small turn is applied in increment form, ``x + ((cos - 1) x + sin y)`` (as
-    :func:`axis_flow_recurring`), so that each component is rounded about once, and ``q``
-    is scaled back to the unit sphere once ``| |q|^2 - 1 |`` passes :data:`UNIT_SLACK`
-    (``|q|`` stays within a few ulps of 1 instead of a random walk, and the scaling
-    rarely adds a rounding); a turn of 0.2 rad or more (:data:`COMPENSATED_TURN`) is
-    evaluated error-free (:func:`_turn_compensated`). A zero ``shift`` is the rigid body's
-    term and takes :func:`axis_flow`'s arithmetic, so that a rotor-free body of a
-    gyrostat ensemble equals its one-body (rigid) run bit for bit.
+    :func:`axis_flow_recurring`, with the normalised ``(sin, cos, cos - 1)`` of the
+    polynomial :func:`~liebody._kernels.trig.sincos_small`: no libm call), so that each
+    component is rounded about once, and ``q`` is scaled back to the unit sphere once
+    ``| |q|^2 - 1 |`` passes :data:`UNIT_SLACK` (``|q|`` stays within a few ulps of 1
+    instead of a random walk, and the scaling rarely adds a rounding); a turn of 0.2 rad or
+    more (:data:`COMPENSATED_TURN`) is evaluated error-free (:func:`_turn_compensated`). A
+    zero ``shift`` is the rigid body's term and takes :func:`axis_flow`'s arithmetic, so
+    that a rotor-free body of a gyrostat ensemble equals its one-body (rigid) run bit for
+    bit.
     """
     half = 0.5 * tau * rate * (component(axis, m1, m2, m3) - shift)
     if shift == 0.0:  # the rigid body's term: its flow, bit for bit (ensembles mix them)
         return _axis_turn(w, x, y, z, m1, m2, m3, axis, half)
     if half * half >= COMPENSATED_TURN:
         return _turn_compensated(w, x, y, z, m1, m2, m3, axis, half)
-    s2 = math.sin(half)
-    c2 = math.cos(half)
-    cm2 = -s2 * s2 / (1.0 + c2)  # cos(half) - 1 (c2 > 0.99 here)
+    s2, c2, cm2 = sincos_small(half)  # (|half| < 0.1: the polynomial, cm2 = c2 - 1)
     cm = -2.0 * s2 * s2  # cos(2 half) - 1
     s = 2.0 * s2 * c2
     if axis == 0:
@@ -133,16 +134,9 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
 
 @jit(inline="always")
 def _two_product(a, b):
-    """``a * b`` as an exact sum ``p + e`` (Dekker's error-free product, Veltkamp's split,
-    as ``quat._two_square``)."""
+    """``a * b`` as an exact sum ``p + e`` (one fused multiply-add)."""
     p = a * b
-    ca = 134217729.0 * a  # 2^27 + 1
-    ah = ca - (ca - a)
-    al = a - ah
-    cb = 134217729.0 * b
-    bh = cb - (cb - b)
-    bl = b - bh
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, fma(a, b, -p)
 
 
 @jit(inline="always")
@@ -158,7 +152,7 @@ def _dot2(a, b, c, d):
 @jit(inner=True)
 def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
     """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis``, each
-    component rounded about once (error-free products and sums: Dekker 1971, Knuth 1997).
+    component rounded about once (error-free products by fused multiply-adds, and sums).
 
     The rounded pair ``(c, s) = (cos half, sin half)`` defines the turn: ``q`` is multiplied
     by ``(c, s e_k) / |(c, s)|`` and ``m`` is turned by its double angle,
