@@ -24,6 +24,7 @@ import math
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import qrotate_inv
 from liebody._kernels.stages import TORQUE_GRAVITY_GRADIENT
+from liebody._kernels.trig import fma
 from liebody._models import orbit
 
 CODE = TORQUE_GRAVITY_GRADIENT
@@ -44,16 +45,17 @@ def _strength(GM, X, Y, Z):
 def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, f):
     """One source's torque ``f (r_b x I r_b)``, ``r_b = R(q)^T (X, Y, Z)``, ``f`` its
     :func:`_strength`."""
-    # R(q)^T v = v + 2 u x (u x v + w v) with u = -(x, y, z): quat.qrotate_inv, written out
-    # so that the SIMD block loop holds no call (LLVM vectorises it)
-    tx = 2.0 * (-y * Z + z * Y)
-    ty = 2.0 * (-z * X + x * Z)
-    tz = 2.0 * (-x * Y + y * X)
-    r1 = X + w * tx + (-y * tz + z * ty)
-    r2 = Y + w * ty + (-z * tx + x * tz)
-    r3 = Z + w * tz + (-x * ty + y * tx)
+    # R(q)^T v = v + w t + u x t, t = 2 u x v with u = -(x, y, z) (quat.qrotate_inv), written
+    # out so that the SIMD block loop holds no call (LLVM vectorises it), with fused
+    # multiply-adds (one rounding each, the same in every lane and in the scalar kernels)
+    tx = 2.0 * fma(z, Y, -(y * Z))
+    ty = 2.0 * fma(x, Z, -(z * X))
+    tz = 2.0 * fma(y, X, -(x * Y))
+    r1 = X + fma(w, tx, fma(z, ty, -(y * tz)))
+    r2 = Y + fma(w, ty, fma(x, tz, -(z * tx)))
+    r3 = Z + fma(w, tz, fma(y, tx, -(x * ty)))
     a1, a2, a3 = I1 * r1, I2 * r2, I3 * r3
-    return f * (r2 * a3 - r3 * a2), f * (r3 * a1 - r1 * a3), f * (r1 * a2 - r2 * a1)
+    return f * fma(r2, a3, -(r3 * a2)), f * fma(r3, a1, -(r1 * a3)), f * fma(r1, a2, -(r2 * a1))
 
 
 @jit
