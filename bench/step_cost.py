@@ -59,7 +59,7 @@ from bench.problems import Problem, method_names, problems
 
 TARGET_RATIO = 1.25  # target: splitting2 within 1.25x of the C code
 #: fixed-cost targets, in steps of splitting2 on the free body
-FIXED_TARGETS = {"integrate_free": 100, "integrate_user_torque": 150, "stepper_free": 20}
+FIXED_TARGETS = {"integrate_free": 150, "integrate_user_torque": 150, "stepper_free": 20}
 #: first call of a stepping method in a fresh process with an empty numba cache [s]
 FIRST_CALL_TARGET_S = 3.0
 #: the demo's first run with an empty numba cache [s]

@@ -50,7 +50,7 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
     clock, the slice, the state and outputs, the user callback, the model's parameter
     block, the diagnostics' arrays and the model's token."""
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
-            n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.model[0],
+            n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.first[1],
             dref, dmax, plan.token)
 
 
@@ -433,30 +433,38 @@ def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None
     microseconds: this check runs at the end of every call); ``q0, q1, L0, L1``: the
     first and last samples as lists, when the caller has them."""
     method, scene = traj.method, traj.scene
-    caps, (I1, I2, I3), l = _energy_terms(scene)
+    caps, (I1, I2, I3), l = scene.__dict__.get(_TERMS) or _energy_terms(scene)
     if q0 is None:
         q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
         L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()
-    if not all(map(math.isfinite, q1 + L1)):
-        return []  # failed: warned already
+        if not all(map(math.isfinite, q1 + L1)):
+            return []  # failed: warned already
+    # (ends given: a complete run's, finite)
     out = []
     qn = math.hypot(*q1)
     if not abs(qn - 1.0) <= QNORM_TOL:
         out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
-    if method.keeps_casimir and not caps.torque:
+    torque = caps.torque
+    if method.keeps_casimir and not torque:
         g0, g1 = math.hypot(*L0), math.hypot(*L1)
         if not abs(g1 - g0) <= CASIMIR_TOL * g0:
             out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
                        f"relative")
+    energy = (method.symplectic or method.keeps_energy) and caps.conservative
+    dissipative = caps.dissipative and not torque  # every method (a torque may add energy)
+    if not (energy or dissipative):
+        return out
+    a1, a2, a3 = L0
+    b1, b2, b3 = L1
     if l is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
         l1, l2, l3 = l
-        L0 = [L0[0] - l1, L0[1] - l2, L0[2] - l3]
-        L1 = [L1[0] - l1, L1[1] - l2, L1[2] - l3]
-    T0 = 0.5 * (L0[0] * L0[0] / I1 + L0[1] * L0[1] / I2 + L0[2] * L0[2] / I3)
-    T1 = 0.5 * (L1[0] * L1[0] / I1 + L1[1] * L1[1] / I2 + L1[2] * L1[2] / I3)
-    if (method.symplectic or method.keeps_energy) and caps.conservative:
+        a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3
+        b1, b2, b3 = b1 - l1, b2 - l2, b3 - l3
+    T0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
+    T1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
+    if energy:
         V0 = V1 = 0.0
-        if caps.torque:
+        if torque:
             V0, V1 = _end_potentials(scene, q0, q1, float(traj.t[0]), float(traj.t[-1]))
         e0, e1, scale = T0 + V0, T1 + V1, T0 + abs(V0)
         if not (math.isfinite(V0) and math.isfinite(V1)):
@@ -466,7 +474,7 @@ def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None
         elif scale > 0 and not abs(e1 - e0) <= ENERGY_TOL * scale:
             out.append(f"the energy went from {e0:.6g} to {e1:.6g}, more than "
                        f"{ENERGY_TOL:.0%} of its scale {scale:.3g}")
-    if caps.dissipative and not caps.torque:  # every method (a torque may add energy)
+    if dissipative:
         rise = k = 0
         if len(traj.t) > 2:
             r, w = _dissipative_rise(traj.L[None], np.asarray(scene.moments, dtype=float))

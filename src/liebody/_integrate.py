@@ -95,7 +95,7 @@ def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
         if L0.shape == (3,) and L0.dtype is F64:
             m1, m2, m3 = L0.tolist()
             if abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM:
-                return np.array((m1, m2, m3))
+                return L0.copy()
     elif (cls is list or cls is tuple) and len(L0) == 3 and all(
             v.__class__ is float or v.__class__ is int for v in L0):
         m1, m2, m3 = (float(v) for v in L0)
@@ -390,7 +390,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if q_init.ndim != 1:
         _check_batch("q0", q_init)
     m_init = _initial_momentum(scene, L0, omega0)
-    dt = as_positive_float("dt", dt)
+    if not (dt.__class__ is float and 0.0 < dt < math.inf):  # (else a float at once)
+        dt = as_positive_float("dt", dt)
     if t0 != 0.0:
         t0 = float(as_float_array("t0", t0, shape=()))
         if t0 + dt == t0:
@@ -415,12 +416,15 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         raise TypeError(f"diagnostics must be True or False, got {type(diagnostics).__name__}")
     if simd is not None and not isinstance(simd, _BOOLS):
         raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
-    n_bodies = _bodies(scene, q_init, m_init)
+    batch = scene.__dict__.get(_BATCH_SHAPE)
+    if q_init.ndim == 1 and m_init.ndim == 1 and batch is not None and not batch:
+        n_bodies = None  # (one body, at once)
+    else:
+        n_bodies = _bodies(scene, q_init, m_init)
     if threads is not None or n_bodies is not None:
         threads = resolve_threads(threads)
 
-    method = _methods.get(scene.default_method if method is None else method)
-    _methods.check_supports(method, scene)
+    method = _methods.supported(scene.default_method if method is None else method, scene)
     if scene.moving_rotor:  # reaction wheels: cut where they saturate
         return scene._integrate_run(method, q_init, m_init, dt, n_steps, save_every,
                                     progress, n_bodies, diagnostics, controls, t0,
@@ -436,7 +440,15 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if n_bodies is None:
         if model.function is not None:
             _check_torque(model, q_init, m_init, u, t0, orientation_only=promise)
-        t = _sample_times(n_steps, save_every, dt)
+            first = USER_FIRST_SLICE
+        else:
+            first = FIRST_SLICE
+        t = _SHORT_TIMES.get((n_steps, save_every, dt))  # (a short run's, at once)
+        if t is None:
+            t = _sample_times(n_steps, save_every, dt)
+        if n_steps <= first and not (progress or diagnostics or method.sampled):
+            return _short_run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
+                              u, t0)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
@@ -689,6 +701,76 @@ def _drivers() -> tuple:
     return _DRIVERS
 
 
+def _outputs(q0: np.ndarray, m0: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A one-body run's sample arrays ``(n, 4)``, ``(n, 3)``, the initial state first."""
+    q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
+    q_out[0] = q0
+    m_out[0] = m0
+    return q_out, m_out
+
+
+def _drive(runner, plan, args: tuple):
+    """Call a one-body driver (``runner``, of ``plan``'s family) on ``args``
+    (:func:`one_body_args`): through numba's dispatch on the plan's first call (which
+    compiles or loads the driver), through the compiled entry point from its second call
+    on (every argument then has the same type: about 0.4 us less a call; a plan made for
+    one run, such as a new orbit's, never resolves it)."""
+    fn = plan.entries.get(runner)
+    if fn is not None:
+        return fn(*args)
+    out = runner(*args)
+    if runner in plan.entries:
+        plan.entries[runner] = entry_point(runner, args)
+    else:
+        plan.entries[runner] = None
+    return out
+
+
+def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) -> Trajectory:
+    """:meth:`_Run.stepped` for a run of one driver call without progress bar or
+    diagnostics (the fixed cost of control loops and optimisers, without a run object);
+    an interrupted, overflowing or failed run is handed to :class:`_Run`, which reports
+    it as a longer run would."""
+    plan = method.plan(scene, m0, dt)
+    params = plan.first[0]
+    if u is not None:
+        params = params.copy()
+        write_controls(params, u)
+    q0l, m0l = q0.tolist(), m0.tolist()
+    state = np.array(q0l + m0l)
+    ctl = _CTL.copy()
+    ctl[0] = save_every
+    n = t.shape[0]
+    q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
+    q_out[0] = q0
+    m_out[0] = m0
+    args = one_body_args(plan, params, plan.merge_ends, dt, t0, 0.0, n_steps, save_every,
+                         True, state, ctl, q_out[1:], m_out[1:], model.address, _NO_DREF,
+                         _NO_DMAX)
+    try:
+        done, saved, status = _drive((_DRIVERS or _drivers())[False][plan.family], plan, args)
+    except KeyboardInterrupt:
+        done = saved = 0
+        status = None
+    if status == S.STATUS_OK:
+        end = state.tolist()  # (a saved step is never merged with the next: the last sample)
+        L1 = end[4:]
+        if max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
+            q_out.setflags(write=False)  # ours: no view
+            m_out.setflags(write=False)
+            traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene,
+                                        method, dt, plan.info, None)
+            return warn_invariants(traj, stacklevel=4, ends=(q0l, end[:4], m0l, L1))
+    run = _Run(scene, method, q0, m0, dt, n_steps, save_every, t, model, False, False, u, t0,
+               (q_out, m_out))
+    run.info = plan.info
+    if status is None:
+        run._interrupted(1, 0)
+    if status == S.STATUS_OK:
+        return run._overflowed()
+    return run._failed(status, done, saved, state)
+
+
 _EXACT: list = []
 
 
@@ -705,7 +787,7 @@ class _Run:
     """One call of :func:`integrate` after validation: runs it and reports the outcome."""
 
     def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 diagnostics=False, u=None, t0=0.0):
+                 diagnostics=False, u=None, t0=0.0, outputs=None):
         self.scene, self.method, self.dt = scene, method, dt
         self.u = u
         self.t0 = t0  # the start time; self.t holds the sample times relative to it
@@ -718,10 +800,9 @@ class _Run:
             self.dmax = np.zeros(3)
         else:  # (the drivers without diagnostics never touch them: shared)
             self.dref, self.dmax = _NO_DREF, _NO_DMAX
-        n = t.shape[0]
-        self.q_out = np.empty((n, 4))
-        self.m_out = np.empty((n, 3))
-        self.q_out[0], self.m_out[0] = q0, m0
+        if outputs is None:
+            outputs = _outputs(q0, m0, t.shape[0])
+        self.q_out, self.m_out = outputs
         self.info: dict = {}
 
     def _slices(self, total: int, unit: str, first: int = FIRST_SLICE):
@@ -773,8 +854,8 @@ class _Run:
         """Run the method's stage table through the driver of its family, in slices."""
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
-        runner = _drivers()[self.diag][plan.family]
-        params = plan.params[0]
+        runner = (_DRIVERS or _drivers())[self.diag][plan.family]
+        params = plan.first[0]
         if self.u is not None:
             params = params.copy()
             write_controls(params, self.u)
@@ -826,15 +907,7 @@ class _Run:
                              self.save_every, done + n == self.n_steps, state, ctl,
                              self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
                              self.dmax)
-        fn = plan.entries.get(runner)
-        if fn is not None:  # the plan's second call on: the compiled entry point (every
-            return fn(*args)  # argument has the same type on every call)
-        out = runner(*args)  # numba's dispatch (compiles or loads it the first time)
-        if runner in plan.entries:  # resolved on a second call (a plan made for one run,
-            plan.entries[runner] = entry_point(runner, args)  # a new orbit's, is not)
-        else:
-            plan.entries[runner] = None
-        return out
+        return _drive(runner, plan, args)
 
     def _diagnostics(self) -> dict | None:
         if not self.diag:

@@ -33,12 +33,15 @@ from liebody._validate import F64
 from liebody.scenes import DEPENDENCIES, Capabilities
 
 #: the scene's memo (``liebody.scenes``, dropped by ``Scene.take``) of the methods that
-#: :func:`check_supports` accepted for it: ``{id(method): method}``
+#: :func:`check_supports` accepted for it: ``{id(method): method}``, and ``{name: method}``
+#: for those :func:`supported` looked up by name
 _SUPPORTED = "_memo_supported"
 #: one-body plans kept (least recently used dropped first)
 PLAN_CACHE_SIZE = 128
 #: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
 _PLANS: OrderedDict = OrderedDict()
+#: method name -> its last plan, ``(method, scene, h, m0 bytes or None, plan)``
+_LAST: dict = {}
 
 __all__ = ["COMPOSITIONS", "CoefficientReport", "Handles", "Method", "MethodTable",
            "composition_report", "get", "methods", "register", "register_composition",
@@ -163,7 +166,12 @@ class Method:
         """
         if m0.__class__ is not np.ndarray or m0.shape != (3,) or m0.dtype is not F64:
             m0 = np.asarray(m0, dtype=float).reshape(3)
-        any_state = (self.name, id(scene), h if h.__class__ is float else float(h))
+        h = h if h.__class__ is float else float(h)
+        last = _LAST.get(self.name)  # (the repeated calls of a loop, at once)
+        if last is not None and last[0] is self and last[1] is scene and last[2] == h and (
+                last[3] is None or last[3] == m0.tobytes()):
+            return last[4]
+        any_state = (self.name, id(scene), h)
         key = any_state
         entry = _PLANS.get(key)
         if entry is None:
@@ -174,13 +182,15 @@ class Method:
                 _PLANS.move_to_end(key)
             except KeyError:  # evicted meanwhile by another thread
                 pass
-            return entry[2]
-        bodies = P.Bodies.of(scene, m0.reshape(1, 3))
-        (_, plan), = self._plans_of(bodies, h)
-        key = (*any_state, m0.tobytes()) if bodies.orbit_read[0] else any_state
-        _PLANS[key] = (self, scene, plan)  # the scene is kept: its id stays unique
-        if len(_PLANS) > PLAN_CACHE_SIZE:
-            _PLANS.popitem(last=False)
+            plan = entry[2]
+        else:
+            bodies = P.Bodies.of(scene, m0.reshape(1, 3))
+            (_, plan), = self._plans_of(bodies, h)
+            key = (*any_state, m0.tobytes()) if bodies.orbit_read[0] else any_state
+            _PLANS[key] = (self, scene, plan)  # the scene is kept: its id stays unique
+            if len(_PLANS) > PLAN_CACHE_SIZE:
+                _PLANS.popitem(last=False)
+        _LAST[self.name] = (self, scene, h, key[3] if len(key) > 3 else None, plan)
         return plan
 
     def plans(self, scene, m0, h: float) -> list[tuple[np.ndarray, P.Plan]]:
@@ -742,6 +752,10 @@ def methods() -> MethodTable:
 
 def get(name) -> Method:
     """Look a method up by name (a :class:`Method` is returned unchanged)."""
+    if name.__class__ is str:  # (the common case, at once)
+        method = _REGISTRY.get(name)
+        if method is not None:
+            return method
     if isinstance(name, Method):
         return name
     if not isinstance(name, str):
@@ -751,6 +765,22 @@ def get(name) -> Method:
     except KeyError:
         known = ", ".join(sorted(_REGISTRY))
         raise ValueError(f"unknown method {name!r}; known methods: {known}") from None
+
+
+def supported(name, scene) -> Method:
+    """:func:`get` and :func:`check_supports` in one call: the method ``name`` (a name or
+    a :class:`Method`), checked against ``scene``; a name checked before for this scene
+    is looked up at once (while the registry still holds that method)."""
+    done = scene.__dict__.get(_SUPPORTED)
+    if done is not None and name.__class__ is str:
+        method = done.get(name)
+        if method is not None and _REGISTRY.get(name) is method:
+            return method
+    method = get(name)
+    check_supports(method, scene)
+    if name.__class__ is str:
+        scene.__dict__[_SUPPORTED][name] = method
+    return method
 
 
 def check_supports(method: Method, scene) -> None:

@@ -145,6 +145,8 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
         if value.shape == (4,) and value.dtype is F64:
             w, x, y, z = value.tolist()
             n = math.sqrt(w * w + x * x + y * y + z * z)
+            if n == 1.0:  # (x / 1 is x)
+                return value.copy()
             if abs(n - 1.0) <= tol:  # (else the general path below says why)
                 return np.array((w / n, x / n, y / n, z / n))
     elif value.__class__ in _SEQUENCES and len(value) == 4 and all(

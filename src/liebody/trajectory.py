@@ -106,9 +106,8 @@ class Trajectory:
                   info: dict, diagnostics: dict | None) -> Trajectory:
         """A complete run's trajectory, as ``Trajectory(t, q, L, scene, method, dt,
         info=info, diagnostics=diagnostics)`` builds it, without the dataclass machinery
-        (the one-body run's fixed cost): ``q`` and ``L`` must be read-only already."""
-        if q.flags.writeable or L.flags.writeable:
-            return cls(t, q, L, scene, method, dt, info=info, diagnostics=diagnostics)
+        (the one-body run's fixed cost): ``q`` and ``L`` must be read-only already (the
+        caller's promise: not checked)."""
         if t.flags.writeable:
             t = t.view()
             t.flags.writeable = False
