@@ -441,12 +441,15 @@ def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None
             return []  # failed: warned already
     # (ends given: a complete run's, finite)
     out = []
-    qn = math.hypot(*q1)
+    w, x, y, z = q1
+    qn = math.hypot(w, x, y, z)
     if not abs(qn - 1.0) <= QNORM_TOL:
         out.append(f"|q| = {qn:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
+    a1, a2, a3 = L0
+    b1, b2, b3 = L1
     torque = caps.torque
     if method.keeps_casimir and not torque:
-        g0, g1 = math.hypot(*L0), math.hypot(*L1)
+        g0, g1 = math.hypot(a1, a2, a3), math.hypot(b1, b2, b3)
         if not abs(g1 - g0) <= CASIMIR_TOL * g0:
             out.append(f"|L| went from {g0:.6g} to {g1:.6g}, more than {CASIMIR_TOL:g} "
                        f"relative")
@@ -454,8 +457,6 @@ def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None
     dissipative = caps.dissipative and not torque  # every method (a torque may add energy)
     if not (energy or dissipative):
         return out
-    a1, a2, a3 = L0
-    b1, b2, b3 = L1
     if l is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
         l1, l2, l3 = l
         a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3

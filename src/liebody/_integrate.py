@@ -760,7 +760,7 @@ def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) 
             m_out.setflags(write=False)
             traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene,
                                         method, dt, plan.info, None)
-            return warn_invariants(traj, stacklevel=4, ends=(q0l, end[:4], m0l, L1))
+            return warn_invariants(traj, 4, (q0l, end[:4], m0l, L1))
     run = _Run(scene, method, q0, m0, dt, n_steps, save_every, t, model, False, False, u, t0,
                (q_out, m_out))
     run.info = plan.info
