@@ -9,6 +9,7 @@ FMA contraction); the DMV family repeats the scalar arithmetic and agrees bit fo
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import platform
@@ -330,8 +331,7 @@ def test_a_failing_body_leaves_the_others_alone(case):
         assert np.isnan(a.q[i]).all()
     good = [i for i in range(12) if i not in bad]
     alone = Run(run.plan, run.state[good, :4], run.state[good, 4:], run.h, 10, 3)
-    alone.plan = type(run.plan)(**{**run.plan.__dict__, "params": per_body(
-        run.plan.params, 12)[good]})
+    alone.plan = dataclasses.replace(run.plan, params=per_body(run.plan.params, 12)[good])
     alone.go(simd(alone.plan), [4, 6])
     np.testing.assert_array_equal(a.q[good], alone.q)
     np.testing.assert_array_equal(a.state[good], alone.state)
@@ -352,7 +352,7 @@ def test_a_body_that_fails_later_stops_at_its_last_good_step():
     assert a.status[4] == S.STATUS_NONFINITE and a.done[4] == 192 and a.saved[4] == 1 + 96
     assert np.all(a.status[[0, 1, 2, 3, 5, 6, 7, 8]] == 0)
     assert rel_diff(a, b) < 1e-12
-    one = Run(type(run.plan)(**{**run.plan.__dict__, "params": run.plan.params[4:5]}),
+    one = Run(dataclasses.replace(run.plan, params=run.plan.params[4:5]),
               run.state[4:5, :4], run.state[4:5, 4:], run.h, 192, 2)
     one.go(simd(one.plan), [192])
     np.testing.assert_array_equal(a.q[4, 1:97], one.q[0, 1:97])

@@ -18,10 +18,12 @@ Families and stages
   with kicks): DMV and KICK.
 
 A kick of uniform gravity is one vectorised loop over the block; any other model's
-kick (the gravity gradient, a user torque through its callback) is evaluated lane by
-lane through the one dispatch on model codes (``liebody._models.dispatch``) at the
-stage's clock time (``t0``, ``step0``, ``clock``, as in the scalar driver), so a new
-model runs here without an edit to these kernels. The running diagnostics evaluate the
+kick goes through the one dispatch on model codes (``liebody._models.dispatch``) at the
+stage's clock time (``t0``, ``step0``, ``clock``, as in the scalar driver): the model's
+time-only part once for the block (the gravity gradient's source positions and
+strengths), then its vectorised block kernel (the gravity gradient's), a user torque's
+block callback, or lane by lane, so a new model runs here without an edit to these
+kernels. The running diagnostics evaluate the
 model's potential likewise.
 
 Everything else (KICK_IMPLICIT, DAMP, the exact flow, the baselines) runs in the scalar
@@ -45,7 +47,8 @@ instructions). The per-stage parameters are gathered once per call into a
 Fast sin/cos
 ------------
 Every rotation of the trig families needs ``sin`` and ``cos`` of a half angle; libm
-does not vectorise, so the kernels use a branch-free polynomial:
+does not vectorise, so the kernels use a branch-free polynomial (``_kernels/trig.py``,
+with :func:`fma`; the circular orbits use it too):
 
 * range reduction ``x = k pi/2 + r``, ``k = floor(2x/pi + 1/2)``, by Cody and Waite's
   three-part ``pi/2`` (fdlibm's ``pio2_1``, ``pio2_2``, ``pio2_2t``: 33 + 33 + 53
