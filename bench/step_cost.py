@@ -303,6 +303,10 @@ def fixed_costs(cfg: dict) -> dict:
     }
     out = {}
     for key, (what, fn) in cases.items():
+        # warm up first: a first call that compiles (a user torque called from Python)
+        # would make median_time time single calls, cold
+        for _ in range(3):
+            fn()
         med, times = core.median_time(fn, cfg["repeat"], cfg["min_batch"])
         out[key] = {"what": what, "s": med, "min_s": min(times), "max_s": max(times)}
     return out
