@@ -368,6 +368,12 @@ class Plan:
         """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
         return body_rows(self.model, c)
 
+    @cached_property
+    def first(self) -> tuple[np.ndarray, np.ndarray]:
+        """The stage parameters and the model's parameter block of the first body (views,
+        made once: the one-body runs read them on every call)."""
+        return self.params[0], self.model[0]
+
     @property
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
