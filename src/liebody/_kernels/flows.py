@@ -132,14 +132,14 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     return w, x, y, z, m1, m2, m3
 
 
-@jit(inline="always")
+@jit(inner=True)
 def _two_product(a, b):
     """``a * b`` as an exact sum ``p + e`` (one fused multiply-add)."""
     p = a * b
     return p, fma(a, b, -p)
 
 
-@jit(inline="always")
+@jit(inner=True)
 def _dot2(a, b, c, d):
     """``a b + c d`` as ``s + e`` with ``e`` the error of ``s`` to within a few ulps of ``e``
     (error-free products and sum: Ogita, Rump & Oishi, SIAM J. Sci. Comput. 26 (2005) 1955)."""
