@@ -114,6 +114,19 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     if half * half >= COMPENSATED_TURN:
         return _turn_compensated(w, x, y, z, m1, m2, m3, axis, half)
     s2, c2, cm2 = sincos_small(half)  # (|half| < 0.1: the polynomial, cm2 = c2 - 1)
+    w, x, y, z, m1, m2, m3 = _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, c2, cm2)
+    d = (w * w + x * x) + (y * y + z * z) - 1.0
+    if abs(d) > UNIT_SLACK:
+        k = -0.5 * d
+        w, x, y, z = w + k * w, x + k * x, y + k * y, z + k * z
+    return w, x, y, z, m1, m2, m3
+
+
+@jit(inner=True)
+def _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, c2, cm2):
+    """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis`` in
+    increment form, ``x + ((cos - 1) x + sin y)``, from ``s2 = sin half``,
+    ``c2 = cos half`` and ``cm2 = cos half - 1``."""
     cm = -2.0 * s2 * s2  # cos(2 half) - 1
     s = 2.0 * s2 * c2
     if axis == 0:
@@ -125,10 +138,6 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     else:
         m1, m2 = m1 + (cm * m1 + s * m2), m2 + (cm * m2 - s * m1)
         w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, 0.0, s2)
-    d = (w * w + x * x) + (y * y + z * z) - 1.0
-    if abs(d) > UNIT_SLACK:
-        k = -0.5 * d
-        w, x, y, z = w + k * w, x + k * x, y + k * y, z + k * z
     return w, x, y, z, m1, m2, m3
 
 
@@ -240,19 +249,10 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     s2 = math.sin(half)
     c2 = math.cos(half)
     cm2 = -s2 * s2 / (1.0 + c2) if c2 > 0.0 else c2 - 1.0
+    if half * half < LARGE_INCREMENT:
+        return _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, c2, cm2)
     cm = -2.0 * s2 * s2  # cos(2 half) - 1
     s = 2.0 * s2 * c2
-    if half * half < LARGE_INCREMENT:
-        if axis == 0:
-            m2, m3 = m2 + (cm * m2 + s * m3), m3 + (cm * m3 - s * m2)
-            w, x, y, z = qmul_increment(w, x, y, z, cm2, s2, 0.0, 0.0)
-        elif axis == 1:
-            m3, m1 = m3 + (cm * m3 + s * m1), m1 + (cm * m1 - s * m3)
-            w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, s2, 0.0)
-        else:
-            m1, m2 = m1 + (cm * m1 + s * m2), m2 + (cm * m2 - s * m1)
-            w, x, y, z = qmul_increment(w, x, y, z, cm2, 0.0, 0.0, s2)
-        return w, x, y, z, m1, m2, m3
     # a large angle: the m-rotation's pair has a norm error of order eps (removed, to far
     # below round-off), and q is kept on the unit sphere (qproject_unit)
     k = -0.5 * increment_defect(cm, s, 0.0, 0.0)
