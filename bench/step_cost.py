@@ -1,6 +1,6 @@
 """Cost per step of every method against a plain C ``splitting2``; compile and import times.
 
-Three measurements, one run:
+The measurements, one run:
 
 * **ns per step.** A small C implementation of the symmetric 5-rotation splitting
   (``bench/c/splitting2.c``: the same algorithm and axis ordering that
@@ -13,6 +13,11 @@ Three measurements, one run:
   reported. At the end, liebody's ``splitting2`` and the C code are checked to agree
   (bit for bit, or to about 1e-15), so the two timings are of the same computation.
   Without a C compiler the C column is skipped with a note.
+* **Spacecraft scenes.** ns per step of one long ``integrate()`` on one body of the
+  gravity-gradient satellite (circular orbit with the axis and the exact free flow, a
+  Kepler orbit, a table of positions), a gyrostat and a body with four driven reaction
+  wheels (:func:`scene_problems`), each against the free body's ``splitting2`` timed
+  right before it.
 * **Compile time.** In two fresh processes (``python -m bench.child first_calls``)
   sharing a new, empty ``NUMBA_CACHE_DIR`` (the user's cache is not touched): the first
   ``integrate()`` call of every method, in registry order, on the free body and on the
@@ -42,6 +47,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import math
 import os
 import shutil
 import statistics
@@ -85,10 +91,11 @@ def settings(quick: bool, steps: int | None = None) -> dict:
     ``steps`` (the ``--steps`` option) overrides the default.
     """
     common = {"h_free": 0.01, "h_top": 0.01, "exact_divisor": 20, "min_steps": 10_000,
+              "scene_steps": 200_000,
               "probe_steps": 10_000, "compile_steps": 10, "min_batch": 0.02}
     if quick:
         cfg = {**common, "steps": 200_000, "repeat": 3, "cap_s": 0.03, "import_repeat": 3,
-               "quick": True}
+               "scene_steps": 50_000, "quick": True}
     else:
         cfg = {**common, "steps": 2_000_000, "repeat": 5, "cap_s": 0.3, "import_repeat": 5}
     if steps is not None:
@@ -222,6 +229,79 @@ def call_overhead(cfg: dict) -> float:
     med, _ = core.median_time(lambda: pb.integrate("splitting2", cfg["h_free"], 1, 1),
                               cfg["repeat"], cfg["min_batch"])
     return med
+
+
+# ------------------------------------------------------------------ scenes
+
+
+def scene_problems() -> dict:
+    """``key -> (label, scene, q0, L0, h, method, controls)``: the spacecraft and planetary
+    scenes (a satellite of ``I = (100, 120, 80)`` in a 7000 km orbit of the Earth, tumbling
+    at 0.5 rad/s; a gyrostat and a body with four reaction wheels), each with its default
+    method, beside the free body's ``splitting2``."""
+    from liebody.orbits import Circular, Kepler, Table
+
+    mu, radius = 3.986004418e14, 7.0e6
+    n = math.sqrt(mu / radius**3)
+    body = liebody.RigidBody([100.0, 120.0, 80.0])
+    w0 = np.array([0.01, 0.5, 0.02])
+    L0 = body.moments * w0
+    period = 2.0 * math.pi / n
+    t_tab = np.linspace(-10.0, 20.0 * period, 20_001)  # (covers 200,000 steps of 0.5 s)
+    r_tab = Circular(n, radius, phase=math.pi).position(t_tab)
+    kepler = Kepler(radius, 0.1, mu, M0=math.pi)
+    pyramid = np.array([[math.cos(b) * math.cos(a), math.cos(b) * math.sin(a), math.sin(b)]
+                        for a in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi)
+                        for b in (math.radians(54.7),)])
+    wheels = liebody.ReactionWheels(body, pyramid, [0.02, 0.03, 0.025, 0.02],
+                                    momentum=[0.3, -0.5, 0.8, 0.1])
+    circ = [(mu, Circular(n, radius, phase=math.pi))]
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    h = 0.5
+    return {
+        "gg_circular_axes": ("gravity gradient, circular orbit, free_flow='axes'",
+                             liebody.GravityGradient(body, circ, free_flow="axes"), q0, L0, h,
+                             "splitting2", None),
+        "gg_circular_exact": ("gravity gradient, circular orbit, free_flow='exact'",
+                              liebody.GravityGradient(body, circ, free_flow="exact"), q0, L0,
+                              h, "splitting2", None),
+        "gg_kepler": ("gravity gradient, Kepler orbit e = 0.1, free_flow='axes'",
+                      liebody.GravityGradient(body, [(mu, kepler)], free_flow="axes"), q0, L0,
+                      h, "splitting2", None),
+        "gg_table": ("gravity gradient, Table of 20,001 positions, free_flow='axes'",
+                     liebody.GravityGradient(body, [(mu, Table(t_tab, r_tab))],
+                                             free_flow="axes"), q0, L0, h, "splitting2", None),
+        "gyrostat": ("gyrostat, constant rotor momentum (3, -2, 5)",
+                     liebody.Gyrostat(body, [3.0, -2.0, 5.0]), q0, L0, h, "splitting2", None),
+        "wheels": ("four reaction wheels, driven (constant motor torques)", wheels, q0,
+                   L0 + pyramid.T @ np.array([0.3, -0.5, 0.8, 0.1]), h, "splitting2",
+                   np.array([1e-4, -2e-4, 1.5e-4, 0.7e-4])),
+    }
+
+
+def scene_costs(cfg: dict) -> dict:
+    """ns per step of one long ``integrate()`` of each scene of :func:`scene_problems`
+    (median of ``cfg["repeat"]``), and its ratio to the free body's ``splitting2``
+    measured right before it (the HLW problem, same steps)."""
+    steps = cfg["scene_steps"]
+    free = problems()["hlw"]
+    out = {}
+    for key, (label, scene, q0, L0, h, method, u) in scene_problems().items():
+        def call(scene=scene, q0=q0, L0=L0, h=h, method=method, u=u):
+            kw = {} if u is None else {"controls": u}
+            return liebody.integrate(scene, q0=q0, L0=L0, dt=h, steps=steps,
+                                     save_every=steps, method=method, **kw)
+
+        call()  # compile or load the kernels
+        ref, _ = core.median_time(
+            lambda: free.integrate("splitting2", cfg["h_free"], steps, steps), cfg["repeat"],
+            cfg["min_batch"])
+        med, times = core.median_time(call, cfg["repeat"], cfg["min_batch"])
+        tr = call()
+        out[key] = {"what": label, "method": method, "h": h, "steps": steps,
+                    "info": {k: str(v) for k, v in tr.info.items()},
+                    "ns": _ns(med, times, steps), "ratio_to_free": med / ref}
+    return out
 
 
 # ------------------------------------------------------------------ fixed costs
@@ -494,7 +574,7 @@ def run(cfg: dict, progress: core.Progress) -> dict:
     ``integrate()`` call overhead, compile and import times (the body of the JSON)."""
     free, top = problems()["hlw"], problems()["top"]
     order = axis_ordering(free, cfg["h_free"])
-    jobs = ["C", *method_names(), "compile", "first calls", "import", "fixed costs"]
+    jobs = ["C", *method_names(), "scenes", "compile", "first calls", "import", "fixed costs"]
     bar = progress(jobs, "step cost")
     c_ref: dict = {}
     rows: dict[str, dict] = {}
@@ -502,6 +582,7 @@ def run(cfg: dict, progress: core.Progress) -> dict:
     imports: dict = {}
     first: dict = {}
     fixed: dict = {}
+    scenes: dict = {}
     with tempfile.TemporaryDirectory(prefix="liebody-numba-cache-") as cache:
         for job in bar:
             bar.set_postfix_str(job)
@@ -515,6 +596,8 @@ def run(cfg: dict, progress: core.Progress) -> dict:
                 first = first_call_times(cfg)
             elif job == "fixed costs":
                 fixed = fixed_costs(cfg)
+            elif job == "scenes":
+                scenes = scene_costs(cfg)
             else:
                 m = liebody.methods()[job]
                 row = {"family": m.family,
@@ -552,6 +635,7 @@ def run(cfg: dict, progress: core.Progress) -> dict:
                    "met": None if s2 is None else bool(s2 <= TARGET_RATIO)},
         "integrate_call_overhead_s": overhead,
         "fixed_costs": fixed,
+        "scenes": scenes,
         "first_calls": {**first, "target_s": FIRST_CALL_TARGET_S,
                         "demo_target_s": DEMO_TARGET_S},
         "compile": compile_info,
@@ -759,6 +843,13 @@ def report(summary: dict) -> str:
                    f"{'met' if row['met'] else 'NOT met'})" if "target_steps" in row else "")
             st = "?" if steps is None else f"{steps:7.1f}"
             lines.append(f"{row['what']:72s} {1e6 * row['s']:8.2f} us = {st} steps{tgt}")
+    scenes = summary.get("scenes") or {}
+    if scenes:
+        lines.append("== ns per step of the spacecraft scenes, one body, one long integrate() "
+                     "(x: against the free body's splitting2 in the same run)")
+        for row in scenes.values():
+            lines.append(f"{row['what']:64s} {row['method']:11s} "
+                         f"{row['ns']['median']:8.1f} ns  x{row['ratio_to_free']:.2f}")
     first = summary.get("first_calls") or {}
     if first.get("calls"):
         lines.append(f"== first call in a fresh process with an empty numba cache (import "

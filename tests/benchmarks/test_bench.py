@@ -162,6 +162,13 @@ def test_step_cost_times_every_method(quick):
     fixed = summary["fixed_costs"]
     assert {"integrate_free", "integrate_user_torque", "stepper_free"} <= set(fixed)
     assert all(row["s"] > 0 and row["steps"] > 0 for row in fixed.values())
+    # the spacecraft scenes timed, each on the free flow it asked for
+    scenes = summary["scenes"]
+    from bench.step_cost import scene_problems
+    assert set(scenes) == set(scene_problems())
+    assert all(row["ns"]["median"] > 0 and row["ratio_to_free"] > 0 for row in scenes.values())
+    assert scenes["gg_circular_exact"]["info"]["free_flow"] == "elliptic"
+    assert scenes["gg_circular_axes"]["info"]["free_flow"].startswith("axes")
     first = summary["first_calls"]
     assert first["calls"] and not any("error" in row for row in first["calls"].values())
     assert first["demo_first_run_s"] > 0 and "demo_error" not in first
