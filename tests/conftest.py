@@ -15,11 +15,25 @@ Helpers shared by several tiers live in ``support.py``.
 
 from __future__ import annotations
 
+import contextlib
+
 import pytest
 from hypothesis import settings
 
 import liebody
 from support import HLW_L0, PHYSICAL_L0, hlw_body, physical_body
+
+
+def pytest_addoption(parser):
+    """pyproject.toml's addopts name two options of pytest-xdist (``--dist loadfile``,
+    ``--maxprocesses``, which only matter with ``-n``); without the plugin (a plain
+    ``pip install pytest``) they are accepted here and do nothing, instead of stopping
+    pytest with "unrecognized arguments"."""
+    for name, kw in (("--dist", {"default": "no"}), ("--maxprocesses", {"default": None})):
+        with contextlib.suppress(ValueError):  # (pytest-xdist installed: its own option)
+            parser.addoption(name, **kw, help="pytest-xdist's option (pytest-xdist is not "
+                             "installed: ignored)")
+
 
 # The first example of a property test may include compiling numba kernels (or
 # loading them from the cache): no per-example deadline.
