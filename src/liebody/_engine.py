@@ -19,6 +19,7 @@ import numpy as np
 from liebody._kernels import stages as S
 from liebody._plan import body_rows
 from liebody.errors import InvariantWarning, TorqueError
+from liebody.scenes import _memo as memo
 from liebody.trajectory import Trajectory
 
 #: wall time a slice of the run aims at: Ctrl-C is seen between slices
@@ -413,18 +414,12 @@ def _energy_terms(scene) -> tuple:
     """What the one-body check reads of a scene, once per scene (scenes are immutable):
     its capabilities, moments ``(I1, I2, I3)`` and a gyrostat's rotor momentum (a list;
     ``None`` for a rigid body)."""
-    d = scene.__dict__
-    terms = d.get(_TERMS)
-    if terms is None:
+    def make() -> tuple:
         l = getattr(scene, "rotor_momentum", None)
-        terms = (scene.capabilities, tuple(scene.moments.tolist()),
-                 None if l is None else np.asarray(l, dtype=float).tolist())
-        d[_TERMS] = terms
-    return terms
+        return (scene.capabilities, tuple(scene.moments.tolist()),
+                None if l is None else np.asarray(l, dtype=float).tolist())
 
-
-#: the scene's memo of :func:`_energy_terms` (``liebody.scenes``: dropped by ``take``)
-_TERMS = "_memo_energy_terms"
+    return memo(scene, "energy_terms", make)
 
 
 def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None = None,
@@ -433,7 +428,7 @@ def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None
     microseconds: this check runs at the end of every call); ``q0, q1, L0, L1``: the
     first and last samples as lists, when the caller has them."""
     method, scene = traj.method, traj.scene
-    caps, (I1, I2, I3), l = scene.__dict__.get(_TERMS) or _energy_terms(scene)
+    caps, (I1, I2, I3), l = _energy_terms(scene)
     if q0 is None:
         q0, q1 = traj.q[0].tolist(), traj.q[-1].tolist()
         L0, L1 = traj.L[0].tolist(), traj.L[-1].tolist()

@@ -61,7 +61,7 @@ from liebody.errors import (
     IntegrationInterrupted,
     TorqueError,
 )
-from liebody.scenes import Scene, TorqueModel
+from liebody.scenes import _MEMO, Scene, TorqueModel, _memo
 from liebody.trajectory import Trajectory
 
 __all__ = ["ConvergenceError", "integrate"]
@@ -443,9 +443,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             first = USER_FIRST_SLICE
         else:
             first = FIRST_SLICE
-        t = _SHORT_TIMES.get((n_steps, save_every, dt))  # (a short run's, at once)
-        if t is None:
-            t = _sample_times(n_steps, save_every, dt)
+        t = _sample_times(n_steps, save_every, dt)
         if n_steps <= first and not (progress or diagnostics or method.sampled):
             return _short_run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                               u, t0)
@@ -521,15 +519,11 @@ def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
 def scene_batch_shape(scene) -> tuple[int, ...]:
     """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many
     (kept on the scene: it is immutable)."""
-    d = scene.__dict__
-    shape = d.get(_BATCH_SHAPE)
-    if shape is None:
-        shape = d[_BATCH_SHAPE] = tuple(getattr(scene, "batch_shape", ()))
-    return shape
+    return _memo(scene, "batch_shape", lambda: tuple(getattr(scene, "batch_shape", ())))
 
 
-#: the scene's memo of its batch shape (``liebody.scenes``: dropped by ``Scene.take``)
-_BATCH_SHAPE = "_memo_batch_shape"
+#: the key of that memo (``liebody.scenes``), read directly on the one-body fast path
+_BATCH_SHAPE = _MEMO + "batch_shape"
 
 
 def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float) -> int:
@@ -732,18 +726,8 @@ def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) 
     an interrupted, overflowing or failed run is handed to :class:`_Run`, which reports
     it as a longer run would."""
     plan = method.plan(scene, m0, dt)
-    params = plan.first[0]
-    if u is not None:
-        params = params.copy()
-        write_controls(params, u)
-    q0l, m0l = q0.tolist(), m0.tolist()
-    state = np.array(q0l + m0l)
-    ctl = _CTL.copy()
-    ctl[0] = save_every
-    n = t.shape[0]
-    q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
-    q_out[0] = q0
-    m_out[0] = m0
+    params, q0l, m0l, state, ctl = _start(plan, q0, m0, u, save_every)
+    q_out, m_out = _outputs(q0, m0, t.shape[0])
     args = one_body_args(plan, params, plan.merge_ends, dt, t0, 0.0, n_steps, save_every,
                          True, state, ctl, q_out[1:], m_out[1:], model.address, _NO_DREF,
                          _NO_DMAX)
@@ -753,14 +737,10 @@ def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) 
         done = saved = 0
         status = None
     if status == S.STATUS_OK:
-        end = state.tolist()  # (a saved step is never merged with the next: the last sample)
-        L1 = end[4:]
-        if max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
-            q_out.setflags(write=False)  # ours: no view
-            m_out.setflags(write=False)
-            traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene,
-                                        method, dt, plan.info, None)
-            return warn_invariants(traj, 4, (q0l, end[:4], m0l, L1))
+        traj = _completed(scene, method, dt, plan.info, t, t0, q_out, m_out, None, q0l, m0l,
+                          state, stacklevel=5)
+        if traj is not None:
+            return traj
     run = _Run(scene, method, q0, m0, dt, n_steps, save_every, t, model, False, False, u, t0,
                (q_out, m_out))
     run.info = plan.info
@@ -769,6 +749,37 @@ def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) 
     if status == S.STATUS_OK:
         return run._overflowed()
     return run._failed(status, done, saved, state)
+
+
+def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
+    """A one-body run's driver inputs: the first body's stage parameters (a copy with the
+    controls ``u`` written in, if any), ``q0`` and ``m0`` as lists, the state
+    ``(q, L)`` and the control block."""
+    params = plan.first[0]
+    if u is not None:
+        params = params.copy()
+        write_controls(params, u)
+    q0l, m0l = q0.tolist(), m0.tolist()
+    ctl = _CTL.copy()
+    ctl[0] = save_every
+    return params, q0l, m0l, np.array(q0l + m0l), ctl
+
+
+def _completed(scene, method, dt: float, info: dict, t: np.ndarray, t0: float,
+               q_out: np.ndarray, m_out: np.ndarray, diagnostics, q0l: list, m0l: list,
+               state: np.ndarray, stacklevel: int) -> Trajectory | None:
+    """The trajectory of a one-body run that finished (``state``: its final state, which is
+    its last sample: a saved step is never merged with the next), after the end-of-run
+    check; ``None`` when its final ``L`` overflows :data:`MAX_MOMENTUM`."""
+    end = state.tolist()
+    L1 = end[4:]
+    if not max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
+        return None
+    q_out.setflags(write=False)  # ours: no view
+    m_out.setflags(write=False)
+    traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene, method, dt,
+                                info, diagnostics)
+    return warn_invariants(traj, stacklevel, (q0l, end[:4], m0l, L1))
 
 
 _EXACT: list = []
@@ -855,15 +866,8 @@ class _Run:
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = plan.info
         runner = (_DRIVERS or _drivers())[self.diag][plan.family]
-        params = plan.first[0]
-        if self.u is not None:
-            params = params.copy()
-            write_controls(params, self.u)
+        params, q0, m0, state, ctl = _start(plan, self.q0, self.m0, self.u, self.save_every)
         merge = plan.merge_ends and not self.diag
-        q0, m0 = self.q0.tolist(), self.m0.tolist()
-        state = np.array(q0 + m0)
-        ctl = _CTL.copy()
-        ctl[0] = self.save_every
         addr = self.model.address
         done = saved = 0
         status = S.STATUS_OK
@@ -884,19 +888,10 @@ class _Run:
         except KeyboardInterrupt:
             self._interrupted(1 + saved, done)
         if status == S.STATUS_OK:
-            # the run ended on its last sample (a saved step is never merged with the
-            # next): the state is that sample
-            end = state.tolist()
-            L1 = end[4:]
-            if not max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
-                return self._overflowed()
-            q_out, m_out = self.q_out, self.m_out
-            q_out.setflags(write=False)  # ours: no view
-            m_out.setflags(write=False)
-            traj = Trajectory._complete(self.t if self.t0 == 0.0 else self.t0 + self.t, q_out,
-                                        m_out, self.scene, self.method, self.dt, self.info,
-                                        self._diagnostics() if self.diag else None)
-            return self._finish(traj, (q0, end[:4], m0, L1))
+            traj = _completed(self.scene, self.method, self.dt, self.info, self.t, self.t0,
+                              self.q_out, self.m_out, self._diagnostics(), q0, m0, state,
+                              stacklevel=5)
+            return self._overflowed() if traj is None else traj
         return self._failed(status, done, saved, state)
 
     def _call(self, runner, plan, params, merge, state, ctl, addr, done: int, saved: int,
@@ -995,9 +990,8 @@ class _Run:
             f"the method's recipe holds a stage its driver does not run (a bug: please "
             f"report it if a fresh cache does not help)")
 
-    def _finish(self, traj: Trajectory, ends: tuple | None = None) -> Trajectory:
-        """``traj``, after the end-of-run check (``ends``: its first and last ``q`` and
-        ``L`` as lists, when known)."""
-        return warn_invariants(traj, stacklevel=5, ends=ends)
+    def _finish(self, traj: Trajectory) -> Trajectory:
+        """``traj``, after the end-of-run check."""
+        return warn_invariants(traj, stacklevel=5)
 
 

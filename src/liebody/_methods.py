@@ -31,11 +31,8 @@ from liebody import _plan as P
 from liebody._kernels import stages as S
 from liebody._validate import F64
 from liebody.scenes import DEPENDENCIES, Capabilities
+from liebody.scenes import _memo as memo
 
-#: the scene's memo (``liebody.scenes``, dropped by ``Scene.take``) of the methods that
-#: :func:`check_supports` accepted for it: ``{id(method): method}``, and ``{name: method}``
-#: for those :func:`supported` looked up by name
-_SUPPORTED = "_memo_supported"
 #: one-body plans kept (least recently used dropped first)
 PLAN_CACHE_SIZE = 128
 #: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
@@ -771,24 +768,31 @@ def supported(name, scene) -> Method:
     """:func:`get` and :func:`check_supports` in one call: the method ``name`` (a name or
     a :class:`Method`), checked against ``scene``; a name checked before for this scene
     is looked up at once (while the registry still holds that method)."""
-    done = scene.__dict__.get(_SUPPORTED)
-    if done is not None and name.__class__ is str:
+    done = _accepted(scene)
+    if name.__class__ is str:
         method = done.get(name)
         if method is not None and _REGISTRY.get(name) is method:
             return method
     method = get(name)
     check_supports(method, scene)
     if name.__class__ is str:
-        scene.__dict__[_SUPPORTED][name] = method
+        done[name] = method
     return method
+
+
+def _accepted(scene) -> dict:
+    """The scene's memo of the methods :func:`check_supports` accepted for it:
+    ``{id(method): method}``, and ``{name: method}`` for those :func:`supported` looked
+    up by name (a scene is immutable: the scene contract)."""
+    return memo(scene, "supported", dict)
 
 
 def check_supports(method: Method, scene) -> None:
     """Raise a ``ValueError`` naming the rule when ``method`` cannot integrate ``scene``
     (or when the scene's capabilities and torque model disagree: the scene contract)."""
-    done = scene.__dict__.get(_SUPPORTED)
-    if done is not None and done.get(id(method)) is method:
-        return  # checked before: a scene is immutable (the scene contract)
+    done = _accepted(scene)
+    if done.get(id(method)) is method:
+        return  # checked before
     caps = scene.capabilities
     torqued = scene.torque_model().code != S.TORQUE_NONE
     if bool(caps.torque) != torqued:
@@ -805,7 +809,7 @@ def check_supports(method: Method, scene) -> None:
             f"times; a gyrostat (rotor momentum l, body angular velocity (L - l) / I) is "
             f"stepped: use splitting2 (its default), splitting4/6/8 or a baseline")
     if method.supports(scene):
-        scene.__dict__.setdefault(_SUPPORTED, {})[id(method)] = method
+        done[id(method)] = method
         return
     able = [m.name for m in _REGISTRY.values() if m.supports(scene)]
     raise ValueError(

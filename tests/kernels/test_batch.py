@@ -26,9 +26,9 @@ from liebody._kernels.batch import (
     SIMD_FAMILIES,
     SIMD_RUNNERS,
     simd_supports,
-    sincos_array,
 )
 from liebody._kernels.batch_drivers import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
+from liebody._kernels.trig import sincos_array
 
 JIT = os.environ.get("NUMBA_DISABLE_JIT") != "1"
 EPS = np.finfo(float).eps

@@ -167,14 +167,13 @@ from liebody._kernels.stages import (
     TORQUE_NONE,
     family_tag,
 )
-from liebody._kernels.trig import (  # noqa: F401  (fma, sincos_array: part of this module's API)
+from liebody._kernels.trig import (
     _cos_poly,
     _quadrant,
     _reduce,
     _sin_poly,
     fma,
     sincos,
-    sincos_array,
     sincos_small,
 )
 from liebody._models import dispatch
