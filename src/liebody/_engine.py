@@ -411,15 +411,16 @@ def _rose_words(t: np.ndarray, T0: float, T1: float, rise: float, k: int) -> str
 
 
 def _energy_terms(scene) -> tuple:
-    """What the one-body check reads of a scene, once per scene (scenes are immutable):
-    its capabilities, moments ``(I1, I2, I3)`` and a gyrostat's rotor momentum (a list;
-    ``None`` for a rigid body)."""
-    def make() -> tuple:
-        l = getattr(scene, "rotor_momentum", None)
-        return (scene.capabilities, tuple(scene.moments.tolist()),
-                None if l is None else np.asarray(l, dtype=float).tolist())
+    """What the one-body check reads of a scene (kept on it: :func:`_energy_terms_of`)."""
+    return memo(scene, "energy_terms", _energy_terms_of, scene)
 
-    return memo(scene, "energy_terms", make)
+
+def _energy_terms_of(scene) -> tuple:
+    """The scene's capabilities, moments ``(I1, I2, I3)`` and a gyrostat's rotor momentum
+    (a list; ``None`` for a rigid body)."""
+    l = getattr(scene, "rotor_momentum", None)
+    return (scene.capabilities, tuple(scene.moments.tolist()),
+            None if l is None else np.asarray(l, dtype=float).tolist())
 
 
 def _one_body_problems(traj: Trajectory, q0: list | None = None, q1: list | None = None,

@@ -207,10 +207,6 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
     bytes of each body's other arrays (:data:`RUN_BYTES_PER_BODY` by default for an
     ensemble), do not fit in the available memory, saying which ``save_every`` would.
     """
-    if bodies == 1:  # a short run's times (at most SHORT_TIMES_SAMPLES: they fit)
-        cached = _SHORT_TIMES.get((n_steps, save_every, dt))
-        if cached is not None:
-            return cached
     n_saves = n_steps // save_every + (1 if n_steps % save_every else 0)
     n_samples = n_saves + 1
     per = _per_sample(bodies)
@@ -443,7 +439,9 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             first = USER_FIRST_SLICE
         else:
             first = FIRST_SLICE
-        t = _sample_times(n_steps, save_every, dt)
+        t = _SHORT_TIMES.get((n_steps, save_every, dt))  # (a short run's: they fit)
+        if t is None:
+            t = _sample_times(n_steps, save_every, dt)
         if n_steps <= first and not (progress or diagnostics or method.sampled):
             return _short_run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                               u, t0)
@@ -519,7 +517,11 @@ def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:
 def scene_batch_shape(scene) -> tuple[int, ...]:
     """The body axis of a scene's parameters: ``()`` for one body, ``(N,)`` for many
     (kept on the scene: it is immutable)."""
-    return _memo(scene, "batch_shape", lambda: tuple(getattr(scene, "batch_shape", ())))
+    return _memo(scene, "batch_shape", _batch_shape_of, scene)
+
+
+def _batch_shape_of(scene) -> tuple[int, ...]:
+    return tuple(getattr(scene, "batch_shape", ()))
 
 
 #: the key of that memo (``liebody.scenes``), read directly on the one-body fast path

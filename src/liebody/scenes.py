@@ -120,15 +120,15 @@ class Capabilities:
 _MEMO = "_memo_"
 
 
-def _memo(scene, name: str, make):
-    """``make()`` computed once per scene (scenes are frozen: their parameters never
+def _memo(scene, name: str, make, *args):
+    """``make(*args)`` computed once per scene (scenes are frozen: their parameters never
     change) and kept on the instance."""
     d = vars(scene)
     key = _MEMO + name
     try:
         return d[key]
     except KeyError:
-        d[key] = value = make()
+        d[key] = value = make(*args)
         return value
 
 
