@@ -126,6 +126,11 @@ class Method:
     sampled
         ``integrate()`` evaluates the method at the output times directly instead of
         stepping (the exact flow): no time is spent between samples.
+    weak_order
+        For a weak torque of relative strength ``eps`` against the free motion, the
+        order in ``h`` of the error's terms linear in ``eps``: the global error is
+        ``O(eps h^weak_order + eps^2 h^order)`` (Laskar & Robutel's SABA_n: ``2 n``).
+        ``None``: no more than ``order``.
     """
 
     name: str
@@ -140,6 +145,7 @@ class Method:
     cost: str
     description: str = ""
     sampled: bool = False
+    weak_order: float | None = None
 
     @property
     def coefficients(self) -> tuple[float, ...]:
@@ -231,6 +237,45 @@ COMPOSITIONS: dict[str, tuple[float, ...]] = {
          0.25837438768632204729, 0.29501172360931029887),
         -0.60550853383003451170),
 }
+
+
+def gauss_legendre(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The ``n``-point Gauss–Legendre rule on ``[0, 1]`` (``n`` = 1 to 4), nodes
+    increasing and weights, from the closed forms of the roots of the Legendre
+    polynomials (Abramowitz & Stegun 1964, table 25.4): exact for polynomials of degree
+    ``2 n - 1``."""
+    if n == 1:
+        x, w = (0.0,), (2.0,)
+    elif n == 2:
+        x, w = (-1.0 / math.sqrt(3.0), 1.0 / math.sqrt(3.0)), (1.0, 1.0)
+    elif n == 3:
+        a = math.sqrt(0.6)
+        x, w = (-a, 0.0, a), (5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0)
+    elif n == 4:
+        r = 2.0 / 7.0 * math.sqrt(1.2)
+        a, b = math.sqrt(3.0 / 7.0 - r), math.sqrt(3.0 / 7.0 + r)
+        wa, wb = (18.0 + math.sqrt(30.0)) / 36.0, (18.0 - math.sqrt(30.0)) / 36.0
+        x, w = (-b, -a, a, b), (wb, wa, wa, wb)
+    else:
+        raise ValueError(f"n must be 1 to 4, got {n!r}")
+    return tuple(0.5 * (1.0 + v) for v in x), tuple(0.5 * v for v in w)
+
+
+def saba_flows(n: int) -> tuple[tuple[str, float, float], ...]:
+    """The sub-flows of Laskar & Robutel's SABA_n (Celest. Mech. Dyn. Astron. 80 (2001)
+    39, sect. 3): the free flow between ``n`` kicks at the Gauss–Legendre nodes
+    ``c_i`` of the step, each kick weighted by its Gauss weight, the clock advancing
+    with the free flow (so a time-dependent torque is read at the nodes):
+    ``free(c_1) kick(w_1) free(c_2 - c_1) ... kick(w_n) free(1 - c_n)``."""
+    nodes, weights = gauss_legendre(n)
+    drifts = [b - a for a, b in zip((0.0, *nodes), (*nodes, 1.0), strict=True)]
+    for i in range((n + 1) // 2):
+        drifts[n - i] = drifts[i]  # mirrored exactly (palindromic)
+    out = []
+    for d, w in zip(drifts, weights, strict=False):
+        out += [("free", d, d), ("kick", w)]
+    out.append(("free", drifts[-1], drifts[-1]))
+    return tuple(out)
 
 
 def check_composition(coefficients, order: float, base_order: int = 2) -> tuple[float, ...]:
@@ -404,6 +449,18 @@ def _dmv(order: int) -> Method:
                     "from the invariants); Poisson in L but not symplectic for (q, L).")
 
 
+def _saba(n: int) -> Method:
+    return Method(
+        f"saba{n}", P.FlowSequence(saba_flows(n)), 2, "splitting", True, True, True, True,
+        Handles(frozenset({"time", "orientation"})),
+        f"{n + 1} exact free flows and {n} kicks ({n} and {n} with the ends merged)",
+        description=f"Laskar & Robutel's SABA_{n} (2001): the exact free flow between "
+                    f"{n} kicks at the Gauss-Legendre nodes of the step; error "
+                    f"O(eps h^{2 * n} + eps^2 h^2) for a torque of relative strength eps, "
+                    f"exact on a free body. For fast rotators under weak torques.",
+        weak_order=2 * n)
+
+
 def _baseline(name: str, kind: int, order: int, keeps_casimir: bool, cost: str,
               description: str) -> Method:
     return Method(name, P.Baseline(kind), order, "baseline", False, False, keeps_casimir,
@@ -441,6 +498,7 @@ for _m in (
     _composition("splitting4", "suzuki4", 4),
     _composition("splitting6", "kahanli6", 6),
     _composition("splitting8", "kahanli8", 8),
+    _saba(2), _saba(3), _saba(4),
     _dmv(4), _dmv(6), _dmv(8), _dmv(10),
     _baseline("euler", S.EULER, 1, False, "1 right-hand side",
               "Explicit Euler on (q, L) in R^7, no renormalisation: energy, |L| and |q| grow "
@@ -716,6 +774,8 @@ class MethodTable(tuple):
                 v = getattr(m, c)
                 if c == "order":
                     v = "exact" if math.isinf(v) else str(int(v))
+                    if m.weak_order is not None:
+                        v += f" (eps h^{int(m.weak_order)})"
                 elif c == "handles":
                     v = v.describe()
                 elif isinstance(v, bool):

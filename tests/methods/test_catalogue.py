@@ -140,6 +140,7 @@ def test_methods_that_cannot_handle_the_scene_say_why(method, scene, words):
 HANDLES = {
     "free": {"exact", "sr2", "dmv4", "dmv6", "dmv8", "dmv10"},
     "torques": {"rattle", "splitting4", "splitting6", "splitting8"},
+    "kicks": {"saba2", "saba3", "saba4"},  # torques of the orientation and the time
     "all": {"splitting2", "no_squish", "euler", "rk4", "lie_euler", "rkmk4"},
 }
 
@@ -153,7 +154,8 @@ def test_every_method_declares_what_it_handles():
         "top": liebody.HeavyTop(liebody.RigidBody([1.0, 1.0, 0.5]), 1.0, [0.0, 0.0, 1.0]),
         "damped": liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 2.5]), 0.1),
     }
-    can = {"free": {"free", "torques", "all"}, "top": {"torques", "all"}, "damped": {"all"}}
+    can = {"free": {"free", "torques", "kicks", "all"}, "top": {"torques", "kicks", "all"},
+           "damped": {"all"}}
     assert set().union(*HANDLES.values()) == set(_methods._BUILTIN)
     for group, names in HANDLES.items():
         for name in sorted(names):

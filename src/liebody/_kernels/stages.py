@@ -121,7 +121,7 @@ KINDS: dict[int, Kind] = {
     KICK_IMPLICIT: Kind("implicit kick", _TORQUE + _CONTROLS, False, False),
     DAMP: Kind("damping", (*_MOMENTS, "eps"), False, False),
     DMV: Kind("dmv", _MOMENTS, False, False),
-    EXACT: Kind("exact", _MOMENTS, False, False),
+    EXACT: Kind("exact", _MOMENTS, True, False),
     EULER: Kind("euler", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False, False),
     RK4: Kind("rk4", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False, False),
     LIE_EULER: Kind("lie_euler", (*_MOMENTS, *_TORQUE, "eps", *_ROTOR, *_CONTROLS), False,
