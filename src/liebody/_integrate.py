@@ -425,17 +425,27 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         return scene._integrate_run(method, q_init, m_init, dt, n_steps, save_every,
                                     progress, n_bodies, diagnostics, controls, t0,
                                     omega_given=omega0 is not None)
-    model = scene.torque_model()
-    if model.code == S.TORQUE_USER:
+    user = scene.__dict__.get(_USER)  # a user torque's model and checks, once known
+    if user is not None:
+        model = user.model
+    else:
+        model = scene.torque_model()
+        if model.function is not None:
+            user = _memo(scene, "user_torque", _UserTorque, scene, model)
+    if user is not None and user.conservative:
         _check_potential(scene, model, q_init, n_bodies, t0)
     u = None if controls is None and not scene.controls else \
         as_controls(scene, controls, n_bodies)
-    promise = model.function is not None and "momentum" not in scene.capabilities.torque
+    promise = user is not None and user.promise
     if method.sampled:
         _check_phase(scene, m_init, n_steps * dt)
     if n_bodies is None:
-        if model.function is not None:
-            _check_torque(model, q_init, m_init, u, t0, orientation_only=promise)
+        if user is not None:
+            if not (_INITIAL_OK[0] if _INITIAL_OK else _initial_ok())(
+                    model.address, t0, q_init, m_init, _NO_U if u is None else u, user.row,
+                    promise):
+                _check_torque(model, q_init, m_init, u, t0, orientation_only=promise,
+                              compiled=False)
             first = USER_FIRST_SLICE
         else:
             first = FIRST_SLICE
@@ -563,9 +573,41 @@ def _check_potential(scene, model, q0: np.ndarray, n_bodies, t0: float) -> None:
                          f"(V = {V[0]})")
 
 
+class _UserTorque:
+    """What :func:`integrate` knows of a user-torque scene, found once per scene (a scene
+    is frozen): its torque model and the model's parameter row of body 0, whether its
+    potential is checked (:func:`_check_potential`) and whether it promises
+    ``orientation_only``."""
+
+    __slots__ = ("conservative", "model", "promise", "row")
+
+    def __init__(self, scene, model: TorqueModel) -> None:
+        caps = scene.capabilities
+        self.model, self.row = model, model.params[0]
+        self.conservative = caps.conservative
+        self.promise = "momentum" not in caps.torque
+
+
+#: the key of that memo (``liebody.scenes``), read directly on the one-body fast path
+_USER = _MEMO + "user_torque"
+#: the controls of a torque without them
+_NO_U = np.zeros(0)
+#: ``user_torque.initial_ok``'s entry point, found on first use
+_INITIAL_OK: list = []
+
+
+def _initial_ok():
+    """``user_torque.initial_ok``'s entry point (``initial_ok_entry``), kept."""
+    if not _INITIAL_OK:
+        from liebody._models.user_torque import initial_ok_entry
+
+        _INITIAL_OK.append(initial_ok_entry())
+    return _INITIAL_OK[0]
+
+
 def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None,
                   t0: float = 0.0, ensemble: bool = False,
-                  orientation_only: bool = False) -> None:
+                  orientation_only: bool = False, compiled: bool = True) -> None:
     """A user torque is called once on the initial state: three numbers, or a clear error
     before the run starts. One body: they must be finite too. An ensemble (``q0``, ``m0``,
     ``u`` of its body 0): a torque that raises or is not finite at one body's state fails
@@ -573,8 +615,17 @@ def _check_torque(model: TorqueModel, q0: np.ndarray, m0: np.ndarray, u=None,
 
     ``orientation_only``: the scene promises a torque that does not depend on ``L``; a
     second call at ``L = 2 L0 + 1`` (same ``t``, ``q``, ``u``) must give the same numbers,
-    else ``ValueError`` (a false promise ran at order 1 without a word)."""
+    else ``ValueError`` (a false promise ran at order 1 without a word).
+
+    The calls go to the torque's C callback first, in one compiled call
+    (``user_torque.initial_ok``: the same compiled function on the same numbers as the
+    drivers'; skipped with ``compiled=False``, when the caller made it); only when that
+    finds a fault is the torque called from Python, which raises the error that names
+    it. ``q0``, ``m0`` and ``u`` are 1-d float64 arrays."""
     if model.function is None:
+        return
+    if compiled and _initial_ok()(model.address, t0, q0, m0, _NO_U if u is None else u,
+                                  model.params[0], orientation_only):
         return
     sig = model.signature
     try:

@@ -171,6 +171,96 @@ def test_a_torque_of_the_wrong_length_is_refused_before_the_run():
         liebody.integrate(scene, L0=[3.0, 1.0, 0.2], dt=0.01, steps=10)
 
 
+@njit
+def _nan_past_its_limits(t, q, L, p, u):
+    """NaN first component past any of its limits: u[1] > p[1], t > p[2], q[3] > p[3] or
+    L[2] > p[4] (so the initial state's check must see every input as given)."""
+    tau = np.array([u[0] * p[0], L[2] * q[1], math.cos(t)])
+    if u[1] > p[1] or t > p[2] or q[3] > p[3] or L[2] > p[4]:
+        tau[0] = math.nan
+    return tau
+
+
+_LIMITS = [3.0, 1.5, 5.0, 0.5, 1.0]
+_TILTED = [math.sqrt(1.0 - 0.6**2), 0.0, 0.0, 0.6]
+
+
+@pytest.mark.parametrize(("u", "t0", "q0", "L0", "bad"), [
+    ([0.1, 1.0], 0.0, [1.0, 0.0, 0.0, 0.0], [0.3, 1.0, 0.2], False),
+    ([0.1, 2.0], 0.0, [1.0, 0.0, 0.0, 0.0], [0.3, 1.0, 0.2], True),
+    ([0.1, 1.0], 6.0, [1.0, 0.0, 0.0, 0.0], [0.3, 1.0, 0.2], True),
+    ([0.1, 1.0], 0.0, _TILTED, [0.3, 1.0, 0.2], True),
+    ([0.1, 1.0], 0.0, [1.0, 0.0, 0.0, 0.0], [0.3, 1.0, 1.2], True),
+])
+def test_a_torque_not_finite_on_the_initial_state_is_refused_before_the_run(u, t0, q0, L0,
+                                                                           bad):
+    """The initial state's check (one compiled call of the torque's callback, then the
+    torque called from Python for the message) sees the controls, the parameters, the
+    time, the orientation and the momentum as given: TorqueError naming the values, at
+    step 0 and t0, before any step; a run whose start is fine runs."""
+    scene = liebody.ControlledBody(liebody.RigidBody([1.0, 2.0, 2.5]), _nan_past_its_limits,
+                                   controls=2, params=_LIMITS)
+    run = {"q0": q0, "L0": L0, "dt": 0.01, "steps": 10, "t0": t0, "controls": u,
+           "method": "splitting2"}
+    if not bad:
+        assert liebody.integrate(scene, **run).status == "complete"
+        return
+    words = r"returned non-finite values \[nan, .*\] on the initial state"
+    with pytest.raises(liebody.TorqueError, match=words) as info:
+        liebody.integrate(scene, **run)
+    exc = info.value
+    assert "_nan_past_its_limits(t, q, L, p, u)" in str(exc)
+    assert exc.step == 0 and exc.t == t0 and exc.trajectory is None
+    assert exc.__cause__ is None
+
+
+@pytest.mark.parametrize("writeable", [True, False])
+def test_the_initial_state_check_reads_arrays_of_any_layout(writeable):
+    """The compiled check is called without numba's type dispatch: strided and read-only
+    views (an ensemble's first body, a Stepper's state row) are read through their
+    strides, as contiguous arrays are."""
+    scene = liebody.ControlledBody(liebody.RigidBody([1.0, 2.0, 2.5]), _nan_past_its_limits,
+                                   controls=2, params=_LIMITS)
+    model = scene.torque_model()
+    check = _integrate._initial_ok()
+
+    def strided(values):
+        a = np.full(2 * len(values), 7.0)
+        a[::2] = values
+        a.flags.writeable = writeable
+        return a[::2]
+
+    def ok(q, L, u, promise=False):
+        return check(model.address, 0.0, strided(q), strided(L), strided(u),
+                     model.params[0], promise)
+
+    one = [1.0, 0.0, 0.0, 0.0]
+    assert ok(one, [0.3, 1.0, 0.2], [0.1, 1.0])
+    assert not ok(one, [0.3, 1.0, 1.2], [0.1, 1.0])
+    assert not ok(one, [0.3, 1.0, 0.2], [0.1, 2.0])
+    assert not ok(_TILTED, [0.3, 1.0, 0.2], [0.1, 1.0])
+    assert not ok(one, [0.3, 1.0, 0.2], [0.1, 1.0], promise=True)  # (NaN at 2 L + 1)
+
+
+@njit
+def _raises_before_one(t, q, L):
+    if 0.25 < t < 1.0:  # (the constructor's test call is at t = 0)
+        raise ValueError("no thruster data before t = 1")
+    return np.zeros(3)
+
+
+def test_a_torque_that_raises_on_the_initial_state_is_refused_with_its_error():
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 2.5]), _raises_before_one,
+                               orientation_only=True)
+    with pytest.raises(liebody.TorqueError, match=r"_raises_before_one\(t, q, L\) raised "
+                       r"ValueError on the initial state: no thruster data") as info:
+        liebody.integrate(scene, L0=[0.3, 1.0, 0.2], dt=0.01, steps=10, t0=0.5)
+    assert type(info.value.__cause__) is ValueError
+    assert info.value.step == 0 and info.value.t == 0.5
+    tr = liebody.integrate(scene, L0=[0.3, 1.0, 0.2], dt=0.01, steps=10, t0=1.0)
+    assert tr.status == "complete"
+
+
 # ----------------------------------------------------------------------- convergence
 
 

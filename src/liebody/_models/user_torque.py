@@ -247,6 +247,45 @@ def torque(t, w, x, y, z, m1, m2, m3, p, addr, mp):
 
 
 @jit
+def initial_ok(addr, t, q, m, u, mp, promise):
+    """Whether the callback at ``addr`` gives three finite numbers at the state ``(t, q,
+    m)`` with the controls ``u`` (0 to ``N_CONTROLS``, the rest zero) and the parameters
+    ``mp`` and, with ``promise`` (an orientation-only torque), the same numbers at
+    ``L = 2 m + 1``: a run's initial state checked in one compiled call, on what the
+    drivers call. False says only that the Python side must look (a torque that raises,
+    or gives another shape, is NaN here)."""
+    n = u.shape[0]
+    u0 = u[0] if n > 0 else 0.0
+    u1 = u[1] if n > 1 else 0.0
+    u2 = u[2] if n > 2 else 0.0
+    u3 = u[3] if n > 3 else 0.0
+    u4 = u[4] if n > 4 else 0.0
+    u5 = u[5] if n > 5 else 0.0
+    w, x, y, z, m1, m2, m3 = q[0], q[1], q[2], q[3], m[0], m[1], m[2]
+    a1, a2, a3 = call_torque(addr, t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, mp)
+    if not (math.isfinite(a1) and math.isfinite(a2) and math.isfinite(a3)):
+        return False
+    if not promise:
+        return True
+    b1, b2, b3 = call_torque(addr, t, w, x, y, z, 2.0 * m1 + 1.0, 2.0 * m2 + 1.0,
+                             2.0 * m3 + 1.0, u0, u1, u2, u3, u4, u5, mp)
+    return a1 == b1 and a2 == b2 and a3 == b3
+
+
+def initial_ok_entry():
+    """:func:`initial_ok` compiled (or loaded from the cache) for 1-d float64 arrays of any
+    layout and writeability, as its entry point: called without numba's type dispatch
+    (about 0.2 us less a call), it takes any such arrays (it reads them through their
+    strides), and nothing else; the function itself with the JIT off."""
+    if config.DISABLE_JIT:
+        return initial_ok
+    arr = types.Array(types.float64, 1, "A", readonly=True)
+    sig = (types.intp, types.float64, arr, arr, arr, arr, types.boolean)
+    initial_ok.compile(sig)
+    return initial_ok.overloads[sig].entry_point
+
+
+@jit
 def potential(t, w, x, y, z, mp):
     """A user potential is Python: not evaluable in the kernels."""
     return math.nan
