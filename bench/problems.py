@@ -63,9 +63,12 @@ class Problem:
         return float(energy(self, self.q0[None], self.L0[None])[0])
 
     def methods(self) -> list[str]:
-        """Every registered time-stepping method that can integrate this scene."""
+        """Every registered time-stepping method that can integrate this scene (on a free
+        body, not those that are the exact flow there: ``Method.exact_when_free``)."""
+        free = not self.scene.capabilities.torque
         return [m.name for m in liebody.methods()
-                if m.family != "exact" and m.supports(self.scene)]
+                if m.family != "exact" and m.supports(self.scene)
+                and not (free and m.exact_when_free)]
 
     def integrate(self, method: str, dt: float, steps: int, save_every: int = 1):
         """``liebody.integrate`` from this problem's initial state; the baselines'

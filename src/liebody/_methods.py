@@ -148,6 +148,13 @@ class Method:
     weak_order: float | None = None
 
     @property
+    def exact_when_free(self) -> bool:
+        """Whether the method is the exact free flow on a body without torque (``exact``;
+        the splittings of the exact free flow and kicks only, such as SABA_n, whose
+        kicks vanish there): on a free body it has no error of its own to measure."""
+        return self.sampled or bool(getattr(self.recipe, "exact_when_free", False))
+
+    @property
     def coefficients(self) -> tuple[float, ...]:
         """Composition coefficients applied to the base (``(1.0,)`` for a base method)."""
         return self.recipe.coefficients
@@ -453,7 +460,7 @@ def _saba(n: int) -> Method:
     return Method(
         f"saba{n}", P.FlowSequence(saba_flows(n)), 2, "splitting", True, True, True, True,
         Handles(frozenset({"time", "orientation"})),
-        f"{n + 1} exact free flows and {n} kicks ({n} and {n} with the ends merged)",
+        f"{n} exact free flows and {n} kicks (the end flows merged between steps)",
         description=f"Laskar & Robutel's SABA_{n} (2001): the exact free flow between "
                     f"{n} kicks at the Gauss-Legendre nodes of the step; error "
                     f"O(eps h^{2 * n} + eps^2 h^2) for a torque of relative strength eps, "

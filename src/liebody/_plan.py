@@ -889,6 +889,11 @@ class FlowSequence(Recipe):
         return out
 
     @property
+    def exact_when_free(self) -> bool:
+        """The exact free flow and kicks only: the exact flow on a body without torque."""
+        return set(self.parts()) <= {"free", "kick"}
+
+    @property
     def palindromic(self) -> bool:
         """The sequence reads the same backwards (a symmetric method, given symmetric
         sub-flows), kicks included: a kick reads the clock, so mirrored kicks must run at

@@ -16,16 +16,8 @@ import pytest
 import liebody
 from support import HLW_L0, PHYSICAL_L0, hlw_body, observed_order, physical_body, state_error
 
-
-def _exact_when_free(method) -> bool:
-    """Whether the method is the exact free flow on a free body: a splitting of the exact
-    free flow and kicks only (SABA_n), whose kicks vanish without a torque."""
-    parts = getattr(method.recipe, "parts", None)
-    return parts is not None and set(parts()) <= {"free", "kick"}
-
-
-STEPPERS = [m.name for m in liebody.methods() if not m.sampled and not _exact_when_free(m)]
-EXACT_WHEN_FREE = [m.name for m in liebody.methods() if _exact_when_free(m)]
+STEPPERS = [m.name for m in liebody.methods() if not m.exact_when_free]
+EXACT_WHEN_FREE = [m.name for m in liebody.methods() if m.exact_when_free and not m.sampled]
 
 
 @pytest.mark.parametrize("body", ["hlw", "physical"])
