@@ -344,6 +344,7 @@ _COLOURS = {
     "splitting6": "#98df8a", "splitting8": "#17becf", "dmv4": "#d62728", "dmv6": "#ff9896",
     "dmv8": "#9467bd", "dmv10": "#c5b0d5", "euler": "#7f7f7f", "rk4": "#000000",
     "lie_euler": "#bcbd22", "rkmk4": "#8c564b",
+    "saba2": "#e6550d", "saba3": "#a63603", "saba4": "#7f2704",
     "scipy RK45": "#e377c2", "scipy DOP853": "#f7b6d2",
     "MuJoCo Euler": "#c49c94", "MuJoCo RK4": "#843c39", "MuJoCo implicitfast": "#ad494a",
 }
