@@ -475,7 +475,8 @@ SAT_MOMENTS = (100.0, 120.0, 80.0)
 #: is the exact free flow between the kicks on a GravityGradient scene) and the axis
 #: splitting between the kicks (``"axes"``), the drift of every scene but this one
 SAT_CONTENDERS = (("splitting2", "splitting2", "auto"), ("splitting4", "splitting4", "auto"),
-                  ("splitting6", "splitting6", "auto"),
+                  ("splitting6", "splitting6", "auto"), ("saba2", "saba2", "auto"),
+                  ("saba3", "saba3", "auto"), ("saba4", "saba4", "auto"),
                   ("splitting2 axes", "splitting2", "axes"),
                   ("splitting4 axes", "splitting4", "axes"), ("rk4", "rk4", "auto"),
                   ("rattle", "rattle", "auto"))
@@ -497,7 +498,7 @@ def satellite_problems(quick: bool) -> dict:
         "tumble": {"title": "spacecraft tumbling near its intermediate axis, |omega| = 0.5 rad/s,"
                             " LEO gravity gradient", "n": n, "T": 3600.0 if quick else 86400.0,
                    "q0": np.array([1.0, 0.0, 0.0, 0.0]), "L0": I * np.array([0.5, 0.01, 0.01]),
-                   "h_max": 3.2, "orbit": Circular(n, R_LEO)},
+                   "h_max": 12.8, "orbit": Circular(n, R_LEO)},
         "libration": {"title": "spacecraft librating about the orbital frame, |omega| ~ n,"
                                " LEO gravity gradient", "n": n,
                       "T": 11520.0 if quick else 57600.0,

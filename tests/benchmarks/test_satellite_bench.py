@@ -2,7 +2,8 @@
 --satellite --quick``): it writes its files, every contender runs, and its findings
 hold at equal steps (no timing is asserted): on the tumbling spacecraft the default
 (kick - exact free flow - kick) is orders of magnitude more accurate than the axis
-splitting between the kicks, and the errors of the defaults fall at their orders."""
+splitting between the kicks, and the errors of the defaults fall at their orders (those
+of SABA_n at their order in the weak torque, ``Method.weak_order``)."""
 
 from __future__ import annotations
 
@@ -51,13 +52,15 @@ def test_every_contender_runs_on_both_satellites(rows):
 def test_the_exact_drift_beats_the_axis_splitting_on_the_tumble(rows):
     default = _errors(rows, "tumble", "splitting2")
     axes = _errors(rows, "tumble", "splitting2 axes")
-    common = sorted(set(default) & set(axes))
-    assert common
+    # the steps at which the default converges (beyond h omega ~ 3 both are resonant)
+    common = sorted(h for h in set(default) & set(axes) if default[h] < 1e-2)
+    assert len(common) >= 3, default
     for h in common:
         assert default[h] < 1e-3 * axes[h], (h, default[h], axes[h])
 
 
-@pytest.mark.parametrize(("method", "order"), [("splitting2", 2), ("splitting4", 4)])
+@pytest.mark.parametrize(("method", "order"), [("splitting2", 2), ("splitting4", 4),
+                                               ("saba2", 4), ("saba3", 6)])
 def test_the_defaults_converge_at_their_order_on_the_tumble(rows, method, order):
     errs = _errors(rows, "tumble", method)
     hs = sorted(h for h, e in errs.items() if 1e-9 < e < 1e-2)
