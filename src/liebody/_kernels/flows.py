@@ -245,7 +245,15 @@ def axis_flow_recurring(w, x, y, z, m1, m2, m3, axis, rate, tau):
     ``qexp_increment``), which leaves a norm error of order
     ``eps sin^2``. Same sub-flow, a few more flops.
     """
-    half = 0.5 * tau * rate * component(axis, m1, m2, m3)
+    return recurring_turn(w, x, y, z, m1, m2, m3, axis,
+                          0.5 * tau * rate * component(axis, m1, m2, m3))
+
+
+@jit(inner=True)
+def recurring_turn(w, x, y, z, m1, m2, m3, axis, half):
+    """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis`` in
+    increment form (:func:`axis_flow_recurring`; also the exact flow's symmetric-body
+    turn, which recurs every step of a splitting likewise)."""
     s2 = math.sin(half)
     c2 = math.cos(half)
     cm2 = -s2 * s2 / (1.0 + c2) if c2 > 0.0 else c2 - 1.0
@@ -283,12 +291,19 @@ def sphere_flow(w, x, y, z, m1, m2, m3, rate, tau):
     ``|q|`` from the rounding of ``cos`` near 1.
     """
     a = tau * rate
-    r1, r2, r3 = a * m1, a * m2, a * m3
+    w, x, y, z = recurring_exp(w, x, y, z, a * m1, a * m2, a * m3)
+    return w, x, y, z, m1, m2, m3
+
+
+@jit(inner=True)
+def recurring_exp(w, x, y, z, r1, r2, r3):
+    """``q exp(r)`` in increment form (:func:`sphere_flow`; also the exact flow's steady
+    and symmetric-body rotations, which recur every step of a splitting likewise)."""
     cm, vx, vy, vz = qexp_increment(r1, r2, r3)
     w, x, y, z = qmul_increment(w, x, y, z, cm, vx, vy, vz)
     if r1 * r1 + r2 * r2 + r3 * r3 >= 4.0 * LARGE_INCREMENT:  # a large angle: qproject_unit
         w, x, y, z = qproject_unit(w, x, y, z)
-    return w, x, y, z, m1, m2, m3
+    return w, x, y, z
 
 
 @jit
