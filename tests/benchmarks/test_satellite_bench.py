@@ -60,7 +60,7 @@ def test_the_exact_drift_beats_the_axis_splitting_on_the_tumble(rows):
 
 
 @pytest.mark.parametrize(("method", "order"), [("splitting2", 2), ("splitting4", 4),
-                                               ("saba2", 4), ("saba3", 6)])
+                                               ("saba2", 4)])
 def test_the_defaults_converge_at_their_order_on_the_tumble(rows, method, order):
     errs = _errors(rows, "tumble", method)
     hs = sorted(h for h, e in errs.items() if 1e-9 < e < 1e-2)
