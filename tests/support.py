@@ -87,7 +87,8 @@ def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: n
     return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
                                 plan.merge_ends, h, 0.0, 0.0, n, 1, True, state, ctl, q_out,
                                 m_out,
-                                torque_addr, plan.model[0], np.zeros(S.DREF_WIDTH), np.zeros(3))
+                                torque_addr, plan.model[0], plan.model_shared,
+                                np.zeros(S.DREF_WIDTH), np.zeros(3))
 
 
 def kernel_run(name: str, scene, L0, h: float, n: int, q0=(1.0, 0.0, 0.0, 0.0)):

@@ -49,10 +49,10 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
     """The argument list of a one-body driver (``driver.RUNNERS``), in its order: the
     plan's stage table with ``params`` (the plan's, or a copy holding controls), the
     clock, the slice, the state and outputs, the user callback, the model's parameter
-    block, the diagnostics' arrays and the model's token."""
+    row and shared block, the diagnostics' arrays and the model's token."""
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.first[1],
-            dref, dmax, plan.token)
+            plan.model_shared, dref, dmax, plan.token)
 
 
 def entry_point(runner, args):
@@ -87,7 +87,7 @@ def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, fina
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, body_rows(params, rows),
             merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
-            torque_addr, plan.model_rows(rows), dref, dmax, plan.token)
+            torque_addr, plan.model_rows(rows), plan.model_shared, dref, dmax, plan.token)
 
 
 def resolve_threads(threads) -> int:
@@ -244,7 +244,8 @@ def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float
     rotor = np.broadcast_to(rotor_momentum(scene), (n, 3))
     T0 = 0.5 * np.sum((m0 - rotor) ** 2 * inv, axis=1)
     V0 = np.zeros(n)
-    potentials(model.code, model.params, np.full(n, float(t0)), np.ascontiguousarray(q0), V0)
+    potentials(model.code, model.params, model.shared, np.full(n, float(t0)),
+               np.ascontiguousarray(q0), V0)
     code = np.full(n, float(model.code))
     if model.code == S.TORQUE_USER:  # a Python potential, which the kernels cannot call
         code[:] = S.TORQUE_NONE  # (without one, the energy error is the change of T)
@@ -493,7 +494,8 @@ def _end_potentials(scene, q0: list, q1: list, t0: float = 0.0, t1: float = 0.0
             row = model.params[0].tolist()
             return fast(t0, q0, row), fast(t1, q1, row)
         V = np.zeros(2)
-        potentials(model.code, model.params, np.array([t0, t1]), np.array([q0, q1]), V)
+        potentials(model.code, model.params, model.shared, np.array([t0, t1]),
+                   np.array([q0, q1]), V)
         return float(V[0]), float(V[1])
     ends = np.array([q0, q1])
     V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[:, None]))

@@ -58,7 +58,7 @@ class Bodies:
 
     moments: np.ndarray  # (N, 3)
     momenta: np.ndarray  # (N, 3): the initial momenta, read through m0
-    #: the torque model's parameter blocks, ``(1, k)`` shared by every body or ``(N, k)``
+    #: the torque model's parameter rows, ``(1, k)`` shared by every body or ``(N, k)``
     model_params: np.ndarray
     eps: np.ndarray  # (N,): dissipation strength
     rotor: np.ndarray  # (N, 3): a gyrostat's rotor momentum (body frame), zeros if rigid
@@ -78,6 +78,9 @@ class Bodies:
     orbit_rate: float = 0.0
     #: set once a recipe has read the initial momenta (shared with the bodies taken)
     orbit_read: list = field(default_factory=lambda: [False], repr=False, compare=False)
+    #: the torque model's block shared by every body (1-d, stored once: a gravity
+    #: gradient's sources)
+    model_shared: np.ndarray = field(default_factory=lambda: _NO_SHARED)
 
     @property
     def m0(self) -> np.ndarray:
@@ -110,7 +113,8 @@ class Bodies:
                    scene.capabilities, scene.free_flow, model.code,
                    bool(getattr(scene, "moving_rotor", False)),
                    auto_flow=getattr(scene, "auto_free_flow", "axes"),
-                   orbit_rate=float(getattr(scene, "orbit_rate", 0.0)))
+                   orbit_rate=float(getattr(scene, "orbit_rate", 0.0)),
+                   model_shared=model.shared)
 
     def __len__(self) -> int:
         return self.moments.shape[0]
@@ -342,7 +346,8 @@ class Plan:
 
     ``params`` has a leading body axis, ``(N, s, N_PARAMS)``, or ``(1, s, N_PARAMS)`` when
     every body of the group has the same parameters (stored once), ``model`` holds the torque
-    model's parameter blocks (``(1, k)`` shared, or ``(N, k)``); the structure (``kinds``,
+    model's parameter rows (``(1, k)`` shared, or ``(N, k)``) and ``model_shared`` its block
+    that every body reads (1-d, stored once); the structure (``kinds``,
     ``axes``, ``coefs``, ``clock``, ``merge_ends``) is common. ``family`` is the driver
     family (``stages.F_*``) that runs it; ``info`` records the set-up choices (axis
     ordering, base of a composition, ...), shown as ``Trajectory.info``.
@@ -357,6 +362,7 @@ class Plan:
     family: int
     info: dict = field(default_factory=dict)
     model: np.ndarray = field(default_factory=lambda: _NO_MODEL)
+    model_shared: np.ndarray = field(default_factory=lambda: _NO_SHARED)
     #: the drivers' model token (``dispatch.token``): the one torque model code of the
     #: stage rows, or "any" where they hold several
     token: tuple = (0,)
@@ -365,12 +371,12 @@ class Plan:
     entries: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def model_rows(self, c) -> np.ndarray:
-        """The model's parameter blocks of the bodies ``c`` (a slice) of this plan."""
+        """The model's parameter rows of the bodies ``c`` (a slice) of this plan."""
         return body_rows(self.model, c)
 
     @cached_property
     def first(self) -> tuple[np.ndarray, np.ndarray]:
-        """The stage parameters and the model's parameter block of the first body (views,
+        """The stage parameters and the model's parameter row of the first body (views,
         made once: the one-body runs read them on every call)."""
         return self.params[0], self.model[0]
 
@@ -388,12 +394,17 @@ def body_rows(a: np.ndarray, c) -> np.ndarray:
 #: the parameter block of a scene without a torque model
 _NO_MODEL = np.zeros((1, 1))
 _NO_MODEL.flags.writeable = False
+#: the shared block of a model without one
+_NO_SHARED = np.zeros(1)
+_NO_SHARED.flags.writeable = False
 
 
 def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
-                 model: np.ndarray | None = None) -> Plan:
+                 model: np.ndarray | None = None, model_shared: np.ndarray | None = None
+                 ) -> Plan:
     """Build a :class:`Plan` for ``n`` bodies: drop identity stages, merge adjacent flows
-    of one Hamiltonian (for every body of the group)."""
+    of one Hamiltonian (for every body of the group); ``model``, ``model_shared``: the
+    torque model's parameter rows and shared block."""
     merged: list[Stage] = []
     for st in stages:
         if st.identity:
@@ -428,6 +439,7 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         family=S.family_of(kinds),
         info=dict(info or {}),
         model=_NO_MODEL if model is None else model,
+        model_shared=_NO_SHARED if model_shared is None else model_shared,
         token=(0,) * (code + 2),  # dispatch.token(code), without importing the kernels
     )
 
@@ -962,7 +974,8 @@ def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, P
         idx = np.flatnonzero(keys == key)
         sub = b if len(idx) == len(b) else b.take(idx)
         stages, info = recipe.stages(sub, h, int(key))
-        out.append((idx, compile_plan(stages, info, len(idx), sub.model_params)))
+        out.append((idx, compile_plan(stages, info, len(idx), sub.model_params,
+                                      sub.model_shared)))
     return out
 
 

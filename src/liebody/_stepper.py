@@ -257,8 +257,8 @@ class Stepper:
             self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
                           bool(plan.merge_ends), self._dt)
             self._tail = (True, self._state, self._ctl, np.empty((1, 4)), np.empty((1, 3)),
-                          self._model.address, plan.model[0], np.zeros(S.DREF_WIDTH),
-                          np.zeros(3), plan.token)
+                          self._model.address, plan.model[0], plan.model_shared,
+                          np.zeros(S.DREF_WIDTH), np.zeros(3), plan.token)
             runner = RUNNERS[plan.family]
             self._ctl[:] = (1, 0)
             args = [*self._head, self._t0, 0.0, 0, 1, *self._tail]
@@ -295,7 +295,8 @@ class Stepper:
                 "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
                          g["done"][c], g["status"][c],
                          self._model.driver_address(g["simd"]),
-                         p.model_rows(c), g["dref"][c], g["dmax"][c], p.token)}
+                         p.model_rows(c), p.model_shared, g["dref"][c], g["dmax"][c],
+                         p.token)}
 
     def _group(self, idx, plan, params, runner, simd: bool) -> dict:
         """The arrays of a group of bodies that share a plan: views of the stepper's

@@ -152,13 +152,29 @@ def _block(params) -> np.ndarray:
     return p
 
 
+def _shared(values) -> np.ndarray:
+    """A model's block shared by every body as a read-only 1-d float64 array (one zero
+    for none)."""
+    p = np.array(values, dtype=np.float64, ndmin=1).reshape(-1)
+    if p.size == 0:
+        p = np.zeros(1)
+    p.flags.writeable = False
+    return p
+
+
+#: the shared block of a model without one
+_NO_SHARED = _shared(0.0)
+
+
 @dataclass(frozen=True)
 class TorqueModel:
     """How the kernels evaluate a scene's torque (part of the scene contract).
 
     ``code`` names the physics model (a ``TORQUE_*`` code; the kernels of each model live
     in a module of its own under ``liebody._models``), ``params`` is the model's parameter
-    block, ``(1, k)`` shared by every body or ``(N, k)`` one row per body, and for a user
+    block, ``(1, k)`` shared by every body or ``(N, k)`` one row per body, ``shared`` the
+    numbers every body reads, stored once whatever ``params`` is (a gravity gradient's
+    sources: ``(s,)``, one zero for a model without them), and for a user
     torque ``address`` is the address of its compiled C callback and ``function`` the
     user's own ``@njit`` function (which the Python side calls to check it and to report
     its errors), taking ``controls`` control inputs and, when ``takes_params``, the
@@ -168,6 +184,7 @@ class TorqueModel:
 
     code: int = TORQUE_NONE
     params: np.ndarray = field(default_factory=lambda: _block(0.0))
+    shared: np.ndarray = field(default_factory=lambda: _NO_SHARED)
     address: int = 0
     function: object = None
     controls: int = 0
@@ -189,10 +206,13 @@ class TorqueModel:
         return cls(TORQUE_GRAVITY, _block(weight_arm))
 
     @classmethod
-    def gravity_gradient(cls, blocks, span=None) -> TorqueModel:
-        """Point masses on orbits (:class:`GravityGradient`): ``blocks`` as laid out by
-        ``liebody._models.gravity_gradient``; ``span`` the times the sampled orbits cover."""
-        return cls(TORQUE_GRAVITY_GRADIENT, _block(blocks), time_dependent=True, span=span)
+    def gravity_gradient(cls, moments, sources, span=None) -> TorqueModel:
+        """Point masses on orbits (:class:`GravityGradient`): the principal ``moments``
+        (``(3,)``, or ``(N, 3)`` per body) and the ``sources`` block shared by every body,
+        as laid out by ``liebody._models.gravity_gradient``; ``span`` the times the sampled
+        orbits cover."""
+        return cls(TORQUE_GRAVITY_GRADIENT, _block(moments), _shared(sources),
+                   time_dependent=True, span=span)
 
     @classmethod
     def user(cls, torque, controls: int = 0, params=None) -> TorqueModel:
@@ -646,7 +666,8 @@ class GravityGradient(Scene):
     ----------
     body
         The body (its inertia about the centre of mass); a :meth:`liebody.RigidBody.batch` makes an
-        ensemble with per-body inertia.
+        ensemble with per-body inertia (the sources are held once for all its bodies, each
+        body its three moments).
     sources
         A sequence of ``(GM, orbit)`` pairs (``GM > 0``), the orbits
         :class:`~liebody.orbits.Circular`, :class:`~liebody.orbits.Kepler` or sampled
@@ -719,16 +740,16 @@ class GravityGradient(Scene):
     def capabilities(self) -> Capabilities:
         return _GRAVITY_GRADIENT
 
-    def _blocks(self) -> np.ndarray:
-        moments = np.atleast_2d(np.asarray(self.body.moments, dtype=float))
-        tail = np.concatenate([np.concatenate([[GM], orbit.row]) for GM, orbit in self.sources])
-        head = np.column_stack([moments, np.full(len(moments), float(len(self.sources)))])
-        return np.hstack([head, np.broadcast_to(tail, (len(moments), tail.size))])
+    def _sources_block(self) -> np.ndarray:
+        """The model's block shared by every body: the number of sources, then each
+        source's ``GM`` and orbit row (``liebody._models.gravity_gradient``)."""
+        return np.concatenate([[float(len(self.sources))]]
+                              + [np.concatenate([[GM], orbit.row]) for GM, orbit in self.sources])
 
     def torque_model(self) -> TorqueModel:
         return _memo(self, "torque_model", lambda: TorqueModel.gravity_gradient(
-            self._blocks(), None if self.time_span == (-math.inf, math.inf)
-            else self.time_span))
+            self.body.moments, self._sources_block(),
+            None if self.time_span == (-math.inf, math.inf) else self.time_span))
 
     @property
     def orbit_rate(self) -> float:
@@ -772,7 +793,8 @@ class GravityGradient(Scene):
         mp = rows if rows.shape[0] == 1 else np.ascontiguousarray(np.broadcast_to(
             _per_body(rows, q), q.shape[:-1] + rows.shape[-1:]).reshape(-1, rows.shape[-1]))
         out = np.empty(flat_q.shape[0])
-        potentials(model.code, mp, np.ascontiguousarray(t.reshape(-1)), flat_q, out)
+        potentials(model.code, mp, model.shared, np.ascontiguousarray(t.reshape(-1)), flat_q,
+                   out)
         return out.reshape(q.shape[:-1])
 
     def jacobi_integral(self, traj) -> np.ndarray:

@@ -110,7 +110,7 @@ class Run:
             runner(p.kinds, p.axes, p.coefs, p.clock, p.params, merge, self.h, 0.0,
                    float(done), k, self.save_every, done + k == self.n_steps, self.state,
                    self.ctl, self.q, self.m, self.saved, self.done, self.status, 0,
-                   p.model, self.dref, self.dmax)
+                   p.model, p.model_shared, self.dref, self.dmax)
             done += k
         return self
 
@@ -534,7 +534,8 @@ def test_the_block_loops_compile_to_packed_instructions():
     par = p[None]  # (stages, slots, BLOCK): the rates, a kick's arm or moments in stage 0
     idx = np.arange(B.BLOCK)
     mc = (0, 0, 0, np.zeros((1, 1)), np.zeros((1, 1, 15)), idx, np.zeros(1),
-          np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64))
+          np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64),
+          np.zeros(1))
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
     for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
@@ -596,7 +597,7 @@ def test_norms_over_1e8_steps(case):
         p = run.plan
         runner(p.kinds, p.axes, p.coefs, p.clock, p.params, False, h, 0.0, float(done), k,
                10**8, done + k == 10**8, run.state, run.ctl, run.q, run.m, run.saved,
-               run.done, run.status, 0, p.model, run.dref, run.dmax)
+               run.done, run.status, 0, p.model, p.model_shared, run.dref, run.dmax)
         done += k
         if done == 10**6:
             early = run.dmax.copy()

@@ -182,7 +182,8 @@ def test_potential_and_torque_against_the_formulas_and_each_other():
         V = float(scene.potential(q, t))
         assert abs(V - _potential_ref(t, q)) <= 1e-13 * abs(V)
         p = np.zeros(16)
-        tau = np.array(dispatch.torque(model.code, model.params[0], p, 0, t, *q, 0.0, 0.0, 0.0))
+        tau = np.array(dispatch.torque(model.code, model.params[0], model.shared, p, 0, t, *q,
+                                       0.0, 0.0, 0.0))
         np.testing.assert_allclose(tau, _torque_ref(t, q), rtol=1e-13, atol=1e-15)
         # the torque is minus the derivative of V under a body rotation by eps e_k
         for k in range(3):

@@ -262,17 +262,18 @@ def test_torque_bound_holds_for_tables():
 
     tab = _table(KEPLER, -0.5, 2.0 * KEPLER.period, 600)  # through the pericentre
     scene = liebody.GravityGradient(liebody.RigidBody(MOMENTS), [(1.0, tab), (0.5, CIRCLE)])
-    row = scene.torque_model().row()
-    bound = gravity_gradient.torque_bound(row)
+    row, shared = scene.torque_model().row(), scene.torque_model().shared
+    bound = gravity_gradient.torque_bound(row, shared)
     kepler_scene = liebody.GravityGradient(liebody.RigidBody(MOMENTS),
                                            [(1.0, KEPLER), (0.5, CIRCLE)])
-    kepler_bound = gravity_gradient.torque_bound(kepler_scene.torque_model().row())
+    kepler_bound = gravity_gradient.torque_bound(kepler_scene.torque_model().row(),
+                                                 kepler_scene.torque_model().shared)
     assert kepler_bound <= bound <= 1.2 * kepler_bound  # a table's r_min: a little lower
     rng = np.random.default_rng(3)
     worst = 0.0
     for t in np.linspace(-0.5, 2.0 * KEPLER.period, 300):
         for q in liebody.quaternion.random(8, rng=rng):
-            tau = gravity_gradient.torque(t, *q, row)
+            tau = gravity_gradient.torque(t, *q, row, shared)
             worst = max(worst, math.hypot(*tau))
     assert worst <= bound
 

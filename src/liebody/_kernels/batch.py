@@ -453,8 +453,8 @@ def _model_kick_block(buf, mc, par, j, nb, t, tau):
     ``mc`` is the block's model context (see ``_run_block``), ``par`` the gathered
     parameters (the model's ``block_constants`` in ``par[j, 0..2]``)."""
     code, addr, mpar, params, idx, scratch = mc[0], mc[2], mc[3], mc[4], mc[5], mc[6]
-    # the time-only part (the sources' positions) once for the block: models share it
-    dispatch.prepare(code, mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]], t, scratch)
+    # the time-only part (the sources' positions) once for the block, from the shared block
+    dispatch.prepare(code, mc[10], t, scratch)
     out = mc[7]
     dispatch.torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, buf,
                           (W0, X0, Y0, Z0, M10, M20, M30), out, mc[8], mc[9])
@@ -602,7 +602,7 @@ def _diagnose_block(buf, nb, mc, t):
     """``driver._diagnose`` for every body of a block (rows ``R_D``, references ``R_DREF``)
     at time ``t``: uniform gravity's potential vectorised (its weight arm in the reference
     rows 3..5, zero without a potential), any other model's lane by lane."""
-    dcode, mpar, idx = mc[1], mc[3], mc[5]
+    dcode, mpar, idx, ms = mc[1], mc[3], mc[5], mc[10]
     mshared = mpar.shape[0] == 1
     # another model's potential first, lane by lane, into the torque rows (free here);
     # the loop below then stays branch-free and vectorised
@@ -612,7 +612,7 @@ def _diagnose_block(buf, nb, mc, t):
             vm[i] = 0.0
     else:
         for i in range(nb):
-            vm[i] = dispatch.potential(dcode, mpar[0] if mshared else mpar[idx[i]], t,
+            vm[i] = dispatch.potential(dcode, mpar[0] if mshared else mpar[idx[i]], ms, t,
                                        buf[W0 + i], buf[X0 + i], buf[Y0 + i], buf[Z0 + i])
     for i in range(nb):
         w = buf[W0 + i]
@@ -789,10 +789,10 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
 
 # ------------------------------------------------------------------ the drivers
 @jit(inline="always")
-def _gather(kinds, params, mpar, idx, nb, par):
+def _gather(kinds, params, mpar, ms, idx, nb, par):
     """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a kick's from
-    the model's parameter blocks ``mpar``, shared or per body: the model's
-    ``dispatch.block_constants`` and torque bound)."""
+    the model's parameter rows ``mpar``, shared or per body, and its shared block ``ms``:
+    the model's ``dispatch.block_constants`` and torque bound)."""
     shared = mpar.shape[0] == 1
     pshared = params.shape[0] == 1
     for j in range(kinds.shape[0]):
@@ -810,7 +810,7 @@ def _gather(kinds, params, mpar, idx, nb, par):
                 code = int(row[P_TORQUE])
                 c1, c2, c3 = dispatch.block_constants(code, mrow)
                 par[j, 0, b], par[j, 1, b], par[j, 2, b] = c1, c2, c3
-                par[j, 3, b] = dispatch.torque_bound(code, mrow)
+                par[j, 3, b] = dispatch.torque_bound(code, mrow, ms)
             else:
                 par[j, 0, b] = row[P_RATE]
 
@@ -818,7 +818,7 @@ def _gather(kinds, params, mpar, idx, nb, par):
 @jit
 def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t0, step0,
                n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
-               torque_addr, mpar, dref, dmax, idx, nb, buf, par, fast, alive):
+               torque_addr, mpar, ms, dref, dmax, idx, nb, buf, par, fast, alive):
     """Run ``n_steps`` steps of the ``nb`` bodies ``idx[:nb]`` (same ``ctl``).
 
     ``family`` and ``diag`` are run-time values here (the drivers pass them as plain
@@ -842,20 +842,19 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
             mrow = mpar[0] if mpar.shape[0] == 1 else mpar[i]
             for r in range(3):
                 buf[(R_DREF + 3 + r) * BLOCK + b] = mrow[r] if gravity else 0.0
-    _gather(kinds, params, mpar, idx, nb, par)
+    _gather(kinds, params, mpar, ms, idx, nb, par)
     # the model context of the kicks and diagnostics: (kick model code, potential code of
-    # the diagnostics, user callback address, model blocks, stage rows, body indices,
+    # the diagnostics, user callback address, model rows, stage rows, body indices,
     # scratch for the time-only part of the torque, the block's torques and work rows,
-    # a user torque's controls and parameter rows per body)
+    # a user torque's controls and parameter rows per body, the model's shared block)
     mcode = 0
     for j in range(kinds.shape[0]):
         if kinds[j] == KICK:
             mcode = int(params[0 if params.shape[0] == 1 else idx[0], j, P_TORQUE])
     dcode = int(dref[idx[0], 3]) if diag else 0
-    mrow = mpar[0] if mpar.shape[0] == 1 else mpar[idx[0]]
-    scratch = np.empty(dispatch.scratch_size(mcode, mrow))
+    scratch = np.empty(dispatch.scratch_size(mcode, ms))
     mc = (mcode, dcode, torque_addr, mpar, params, idx, scratch, np.empty((6, BLOCK)),
-          np.zeros((BLOCK, N_CONTROLS)), np.zeros(BLOCK, dtype=np.int64))
+          np.zeros((BLOCK, N_CONTROLS)), np.zeros(BLOCK, dtype=np.int64), ms)
     until_save = ctl[idx[0], 0]
     pending = ctl[idx[0], 1] != 0
     n_saved = 0
@@ -959,8 +958,8 @@ def _simd_runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
-            dmax, model=(0,)):
+            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, ms,
+            dref, dmax, model=(0,)):
         # (``model``, the one-body drivers' model token, is not used: the block kernels
         # are compiled once for every model)
         ns = kinds.shape[0]
@@ -1006,8 +1005,8 @@ def _simd_runner(family: int, diag: bool = False):
             if nb > 0:  # family, diag as plain values: one compilation for all drivers
                 _run_block(np.int64(family), np.bool_(diag), kinds, axes, coefs, clock,
                            params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
-                           ctl, q_out, m_out, saved, done, status, torque_addr, mpar, dref,
-                           dmax, idx, nb, buf, par, fast, alive)
+                           ctl, q_out, m_out, saved, done, status, torque_addr, mpar, ms,
+                           dref, dmax, idx, nb, buf, par, fast, alive)
         return 0
 
     return run

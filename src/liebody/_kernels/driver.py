@@ -105,24 +105,24 @@ KICK_NEWTON = 30
 
 
 @jit(inline="always")
-def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """The torque and whether it is a finite 3-vector (a user torque signals failure by NaN)."""
-    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     return n1, n2, n3, abs(n1) + abs(n2) + abs(n3) < math.inf
 
 
 @jit(inline="always")
-def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """KICK: the exact flow of an orientation-only torque, ``m += tau N(t, q)`` (inlined: as
     a call it cost a gravity-gradient step about 10 %)."""
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     return w, x, y, z, m1 + tau * n1, m2 + tau * n2, m3 + tau * n3, STATUS_OK
 
 
 @jit
-def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """KICK (exact flow of an orientation-only torque) or KICK_IMPLICIT.
 
     The implicit kick solves ``k = m + tau N(t, q, k)``: the adjoint of the explicit one,
@@ -131,7 +131,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     ``tau |dN/dm| < 1``), then Newton with a finite-difference Jacobian (stiff torques
     such as strong damping), each to round-off.
     """
-    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3, ok = _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     if not ok:
         return w, x, y, z, m1, m2, m3, STATUS_TORQUE
     e1, e2, e3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3  # the explicit kick
@@ -140,7 +140,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     k1, k2, k3 = e1, e2, e3
     scale = abs(m1) + abs(m2) + abs(m3)
     for _ in range(KICK_FIXED_POINT):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, model)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, ms, model)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         j1, j2, j3 = m1 + tau * n1, m2 + tau * n2, m3 + tau * n3
@@ -153,7 +153,7 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     # Newton on G(k) = k - m - tau N(k), from the explicit kick
     k1, k2, k3 = e1, e2, e3
     for _ in range(KICK_NEWTON):
-        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, model)
+        n1, n2, n3, ok = _torque(p, t, w, x, y, z, k1, k2, k3, torque_addr, mp, ms, model)
         if not ok:
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         g1, g2, g3 = k1 - m1 - tau * n1, k2 - m2 - tau * n2, k3 - m3 - tau * n3
@@ -162,9 +162,9 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
             return w, x, y, z, k1, k2, k3, STATUS_OK
         # J = 1 - tau dN/dk, by forward differences
         e = 1.5e-8 * size
-        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr, mp, model)
-        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr, mp, model)
-        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr, mp, model)
+        a1, a2, a3, ok1 = _torque(p, t, w, x, y, z, k1 + e, k2, k3, torque_addr, mp, ms, model)
+        b1, b2, b3, ok2 = _torque(p, t, w, x, y, z, k1, k2 + e, k3, torque_addr, mp, ms, model)
+        d1, d2, d3, ok3 = _torque(p, t, w, x, y, z, k1, k2, k3 + e, torque_addr, mp, ms, model)
         if not (ok1 and ok2 and ok3):
             return w, x, y, z, m1, m2, m3, STATUS_TORQUE
         f = tau / e
@@ -187,23 +187,23 @@ def _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
     return w, x, y, z, m1, m2, m3, STATUS_KICK_NO_CONVERGENCE
 
 
-def kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """:func:`_kick`, compiled with its implicit (Newton) half only where the run's model
     (the token ``model``) may depend on the momentum; for the others (uniform gravity, the
     gravity gradient: explicit kicks only) an implicit kick is ``STATUS_BAD_STAGE``."""
-    return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
 
 
 @overload(kick, jit_options=overload_options())
-def _kick_of(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def _kick_of(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     if dispatch.momentum_dependent(model):
-        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
-            return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
+            return _kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     else:
-        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+        def impl(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
             if kind != KICK:
                 return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
-            return _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+            return _explicit_kick(p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     return impl
 
 
@@ -227,17 +227,17 @@ def _damp(p, tau, w, x, y, z, m1, m2, m3):
 
 
 @jit
-def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """The splittings' stages other than rotations: kicks and dissipation."""
     if kind == KICK or kind == KICK_IMPLICIT:
-        return kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+        return kick(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     if kind == DAMP:
         return _damp(p, tau, w, x, y, z, m1, m2, m3)
     return w, x, y, z, m1, m2, m3, STATUS_BAD_STAGE
 
 
 @jit
-def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model,
+def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model,
                span=0.0):
     """Any stage kind (the generic family, for plans that mix kinds of several families);
     ``span`` is the time the clock advances during the stage."""
@@ -255,27 +255,27 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, m
     elif kind == EXACT:
         return _exact(p, tau, w, x, y, z, m1, m2, m3)
     elif kind == EULER:
-        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
+        r = euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, ms, model)
     elif kind == RK4:
-        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
+        r = rk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, ms, model)
     elif kind == LIE_EULER:
-        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
+        r = lie_euler_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, ms, model)
     elif kind == RKMK4:
-        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, model)
+        r = rkmk4_step(t, w, x, y, z, m1, m2, m3, p, tau, torque_addr, mp, ms, model)
     else:
-        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+        return _kick_or_damp(kind, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
 # ------------------------------------------------------------------ the loop
 @jit
-def _diagnose(t, w, x, y, z, m1, m2, m3, mp, dref, dmax, model):
+def _diagnose(t, w, x, y, z, m1, m2, m3, mp, ms, dref, dmax, model):
     """Update the running diagnostics ``dmax`` with the state at time ``t`` (see
     :func:`_runner`)."""
     n2 = w * w + x * x + y * y + z * z
     d1, d2, d3 = m1 - dref[10], m2 - dref[11], m3 - dref[12]  # (m - l: a gyrostat's rotor)
     T = 0.5 * (d1 * d1 * dref[0] + d2 * d2 * dref[1] + d3 * d3 * dref[2])
-    V = dispatch.potential_of(model, int(dref[3]), mp, t, w, x, y, z)
+    V = dispatch.potential_of(model, int(dref[3]), mp, ms, t, w, x, y, z)
     e = abs(T + V - dref[6]) * dref[7]
     qe = abs(math.sqrt(n2) - 1.0)
     le = abs(math.sqrt(m1 * m1 + m2 * m2 + m3 * m3) - dref[8]) * dref[9]
@@ -301,7 +301,7 @@ def _runner(family: int, diag: bool = False):
 
     @jit(tag=family_tag(family, diag))
     def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, torque_addr, mp, dref, dmax, model=(0,)):
+            final, state, ctl, q_out, m_out, torque_addr, mp, ms, dref, dmax, model=(0,)):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
         The run may be cut into slices (calls) of any length without changing a bit of
@@ -314,8 +314,9 @@ def _runner(family: int, diag: bool = False):
         step of the run, and the last step of the last slice (``final``), is written to
         consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
         ``torque_addr`` is the address of the user torque callback
-        (``user_torque.adapt_user_torque``), 0 for none, ``mp`` the torque model's
-        parameter block (``liebody._models``; a 1-d array) and ``model`` the model's token
+        (``user_torque.adapt_user_torque``), 0 for none, ``mp`` and ``ms`` the torque model's
+        parameters (``liebody._models``): the body's row and the block shared by every body
+        (1-d arrays), and ``model`` the model's token
         (``dispatch.token(code)``: numba compiles a driver per model, holding that model's
         torque and potential only; omitted, the kernels dispatch on the stage rows' codes).
 
@@ -366,10 +367,11 @@ def _runner(family: int, diag: bool = False):
                 elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
                     if family == F_KICKED and kind == KICK:
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
-                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
                     elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
                         w, x, y, z, m1, m2, m3, status = kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            model)
                     elif family == F_SPLITTING and kind == DAMP:
                         w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
                                                                m1, m2, m3)
@@ -402,28 +404,30 @@ def _runner(family: int, diag: bool = False):
                                                               m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            model)
                 elif family == F_EXACT:
                     if kind == EXACT:
                         w, x, y, z, m1, m2, m3, status = _exact(params[j], tau, w, x, y, z,
                                                                 m1, m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick_or_damp(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            model)
                 elif family == F_EULER:
-                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
                                    model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RK4:
-                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
                                  model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_LIE_EULER:
                     r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
-                                       model)
+                                       ms, model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RKMK4:
-                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
                                    model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 else:
@@ -432,7 +436,7 @@ def _runner(family: int, diag: bool = False):
                         span = (clock[last] + clock[0]) * h
                     w, x, y, z, m1, m2, m3, status = _any_stage(
                         kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp,
-                        model, span)
+                        ms, model, span)
                 if status != STATUS_OK:
                     break
                 t += clock[j] * h
@@ -446,7 +450,7 @@ def _runner(family: int, diag: bool = False):
                 state[4], state[5], state[6] = g1, g2, g3
                 return step, n_saved, status
             if diag:
-                _diagnose(t0 + (step0 + step + 1) * h, w, x, y, z, m1, m2, m3, mp, dref,
+                _diagnose(t0 + (step0 + step + 1) * h, w, x, y, z, m1, m2, m3, mp, ms, dref,
                           dmax, model)
             if save_now:
                 until_save = save_every

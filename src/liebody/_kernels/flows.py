@@ -469,7 +469,7 @@ def _omega(m1, m2, m3, I1, I2, I3, eps, l1, l2, l3):
 
 
 @jit
-def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, model):
+def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, ms, model):
     """Right-hand side ``(q', m')`` in R^7 (no constraint), with torque and dissipation.
 
     ``omega_e = omega + eps m x omega``; ``q' = q (0, omega_e)/2``;
@@ -479,13 +479,13 @@ def _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, model):
     o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
                         rotor_at(p, 1, t), rotor_at(p, 2, t))
     dw, dx, dy, dz = qmul(w, x, y, z, 0.0, 0.5 * o1, 0.5 * o2, 0.5 * o3)
-    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     return (dw, dx, dy, dz,
             m2 * o3 - m3 * o2 + n1, m3 * o1 - m1 * o3 + n2, m1 * o2 - m2 * o1 + n3)
 
 
 @jit
-def euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
+def euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, ms, model):
     """Explicit Euler on ``(q, m)`` in R^7, no renormalisation (baseline: fails).
 
     Order 1. For the free body energy and ``|m|`` grow every step and ``|q|`` grows
@@ -493,27 +493,27 @@ def euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
     ``omega . f = m . f = 0``, so ``T`` and ``|m|^2`` grow by ``(h^2/2) f^T I^-1 f`` and
     ``h^2 |f|^2``).
     """
-    k = _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, model)
+    k = _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, ms, model)
     return (w + h * k[0], x + h * k[1], y + h * k[2], z + h * k[3],
             m1 + h * k[4], m2 + h * k[5], m3 + h * k[6])
 
 
 @jit
-def rk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
+def rk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, ms, model):
     """Classical Runge–Kutta 4 on ``(q, m)`` in R^7, no renormalisation (baseline).
 
     Order 4; not symplectic, not symmetric: energy and ``|m|`` drift linearly,
     ``|q|`` decays by about ``(h|omega|/2)^6 / 144`` per step (derived: for frozen ``omega``
     ``|R(iy)|^2 = 1 - y^6/72 + y^8/576``, ``y = h|omega|/2``).
     """
-    k1 = _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, model)
+    k1 = _rhs(t, w, x, y, z, m1, m2, m3, p, torque_addr, mp, ms, model)
     b = 0.5 * h
     k2 = _rhs(t + b, w + b * k1[0], x + b * k1[1], y + b * k1[2], z + b * k1[3],
-              m1 + b * k1[4], m2 + b * k1[5], m3 + b * k1[6], p, torque_addr, mp, model)
+              m1 + b * k1[4], m2 + b * k1[5], m3 + b * k1[6], p, torque_addr, mp, ms, model)
     k3 = _rhs(t + b, w + b * k2[0], x + b * k2[1], y + b * k2[2], z + b * k2[3],
-              m1 + b * k2[4], m2 + b * k2[5], m3 + b * k2[6], p, torque_addr, mp, model)
+              m1 + b * k2[4], m2 + b * k2[5], m3 + b * k2[6], p, torque_addr, mp, ms, model)
     k4 = _rhs(t + h, w + h * k3[0], x + h * k3[1], y + h * k3[2], z + h * k3[3],
-              m1 + h * k3[4], m2 + h * k3[5], m3 + h * k3[6], p, torque_addr, mp, model)
+              m1 + h * k3[4], m2 + h * k3[5], m3 + h * k3[6], p, torque_addr, mp, ms, model)
     s = h / 6.0
     return (w + s * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
             x + s * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
@@ -534,14 +534,14 @@ def _coadjoint(w, x, y, z, m1, m2, m3, s1, s2, s3):
 
 
 @jit
-def lie_euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
+def lie_euler_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, ms, model):
     """Lie–Euler: ``sigma = h omega_e(m)``, coadjoint update, plus ``h tau(t, q, m)``.
 
     Order 1 (Crouch & Grossman 1993; Iserles et al., Acta Numerica 9 (2000) 215); stays on
     SO(3); without an external torque it keeps ``|m|`` exactly, but it is neither
     symplectic nor symmetric: it drives ``m`` towards the axis of maximum energy.
     """
-    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3 = torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
     o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
                         rotor_at(p, 1, t), rotor_at(p, 2, t))
     r = _coadjoint(w, x, y, z, m1, m2, m3, h * o1, h * o2, h * o3)
@@ -588,20 +588,20 @@ def _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, I1, I2, I3, eps, h, l1, l2, l3):
 
 
 @jit
-def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, p, h, torque_addr, mp, model):
+def _rkmk4_stage_torqued(t, w, x, y, z, u1, u2, u3, m1, m2, m3, p, h, torque_addr, mp, ms, model):
     """Stage derivatives on SO(3) x R^3: ``(dexpinv(u, h omega_e), h m')`` at ``(q exp(u), m)``."""
     ew, ex, ey, ez = qexp(u1, u2, u3)
     qw, qx, qy, qz = qmul(w, x, y, z, ew, ex, ey, ez)
     o1, o2, o3 = _omega(m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS], rotor_at(p, 0, t),
                         rotor_at(p, 1, t), rotor_at(p, 2, t))
-    n1, n2, n3 = torque_value(p, t, qw, qx, qy, qz, m1, m2, m3, torque_addr, mp, model)
+    n1, n2, n3 = torque_value(p, t, qw, qx, qy, qz, m1, m2, m3, torque_addr, mp, ms, model)
     a1, a2, a3 = _dexpinv(u1, u2, u3, h * o1, h * o2, h * o3)
     return (a1, a2, a3, h * (m2 * o3 - m3 * o2 + n1), h * (m3 * o1 - m1 * o3 + n2),
             h * (m1 * o2 - m2 * o1 + n3))
 
 
 @jit
-def rkmk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
+def rkmk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, ms, model):
     """Runge–Kutta–Munthe-Kaas with the classical RK4 tableau (Munthe-Kaas, BIT 38 (1998) 92).
 
     Order 4; stays on SO(3). Without an external torque ``m`` moves by the coadjoint
@@ -614,17 +614,17 @@ def rkmk4_step(t, w, x, y, z, m1, m2, m3, p, h, torque_addr, mp, model):
         return _rkmk4_coadjoint(w, x, y, z, m1, m2, m3, p[P_I1], p[P_I2], p[P_I3], p[P_EPS],
                                 h, p[P_L1], p[P_L2], p[P_L3])
     b = 0.5 * h
-    k1 = _rkmk4_stage_torqued(t, w, x, y, z, 0.0, 0.0, 0.0, m1, m2, m3, p, h, torque_addr, mp,
+    k1 = _rkmk4_stage_torqued(t, w, x, y, z, 0.0, 0.0, 0.0, m1, m2, m3, p, h, torque_addr, mp, ms,
                               model)
     k2 = _rkmk4_stage_torqued(t + b, w, x, y, z, 0.5 * k1[0], 0.5 * k1[1], 0.5 * k1[2],
                               m1 + 0.5 * k1[3], m2 + 0.5 * k1[4], m3 + 0.5 * k1[5],
-                              p, h, torque_addr, mp, model)
+                              p, h, torque_addr, mp, ms, model)
     k3 = _rkmk4_stage_torqued(t + b, w, x, y, z, 0.5 * k2[0], 0.5 * k2[1], 0.5 * k2[2],
                               m1 + 0.5 * k2[3], m2 + 0.5 * k2[4], m3 + 0.5 * k2[5],
-                              p, h, torque_addr, mp, model)
+                              p, h, torque_addr, mp, ms, model)
     k4 = _rkmk4_stage_torqued(t + h, w, x, y, z, k3[0], k3[1], k3[2],
                               m1 + k3[3], m2 + k3[4], m3 + k3[5],
-                              p, h, torque_addr, mp, model)
+                              p, h, torque_addr, mp, ms, model)
     s0 = (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]) / 6.0
     s1 = (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]) / 6.0
     s2 = (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]) / 6.0

@@ -22,12 +22,12 @@ from liebody._models import dispatch
 
 
 @jit(inline="always")
-def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, model):
+def torque_value(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
     """Body torque of the model named by the stage row ``p`` (``P_TORQUE``), with the
-    model's parameter block ``mp`` and a user torque's callback address ``torque_addr``
-    (0 for none); ``model`` the run's model token (``dispatch.token``), which selects the
-    model at compile time."""
-    return dispatch.torque_of(model, int(p[P_TORQUE]), mp, p, torque_addr, t, w, x, y, z,
+    model's parameters ``mp`` (the body's row) and ``ms`` (shared by every body) and a user
+    torque's callback address ``torque_addr`` (0 for none); ``model`` the run's model token
+    (``dispatch.token``), which selects the model at compile time."""
+    return dispatch.torque_of(model, int(p[P_TORQUE]), mp, ms, p, torque_addr, t, w, x, y, z,
                               m1, m2, m3)
 
 

@@ -50,92 +50,121 @@ PYTHON_POTENTIALS = {uniform_gravity.CODE: uniform_gravity.potential_py}
 
 
 @jit(inline="always")
-def torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-    """Body torque of model ``code`` with parameter block ``mp`` at ``(t, q, m)``; ``p`` is
-    the stage's parameter row (the controls of a user torque), ``addr`` the address of a
-    user torque's callback (0 for none)."""
+def torque(code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+    """Body torque of model ``code`` with the body's parameter row ``mp`` and the block
+    ``ms`` shared by every body at ``(t, q, m)``; ``p`` is the stage's parameter row (the
+    controls of a user torque), ``addr`` the address of a user torque's callback (0 for
+    none)."""
     if code == uniform_gravity.CODE:
         return uniform_gravity.torque(t, w, x, y, z, mp)
     if code == gravity_gradient.CODE:
-        return gravity_gradient.torque(t, w, x, y, z, mp)
+        return gravity_gradient.torque(t, w, x, y, z, mp, ms)
     if code == user_torque.CODE:
         return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
     return 0.0, 0.0, 0.0
 
 
-def torque_of(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
+def torque_of(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
     """:func:`torque` specialised at compile time to the model of the token ``model``
     (:func:`token`; for :data:`ANY`, the stage's ``code``). Only the kernels compile it
     (an overload); uncompiled, it is :func:`torque` of ``code``."""
-    return torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3)
+    return torque(code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3)
 
 
-@overload(torque_of, jit_options=overload_options())
-def _torque_of(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-    c = _token_code(model)
-    if c == uniform_gravity.CODE:
-        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-            return uniform_gravity.torque(t, w, x, y, z, mp)
-    elif c == gravity_gradient.CODE:
-        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-            return gravity_gradient.torque(t, w, x, y, z, mp)
-    elif c == user_torque.CODE:
-        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-            return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
-    elif c == TORQUE_NONE:
-        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-            return 0.0, 0.0, 0.0
-    else:
-        def impl(model, code, mp, p, addr, t, w, x, y, z, m1, m2, m3):
-            return torque(code, mp, p, addr, t, w, x, y, z, m1, m2, m3)
+# The overloads' implementations for the gravity gradient are inlined by numba: a regular
+# overload's implementation is a function of its own, which LLVM inlines together with the
+# atomic reference-count increments and decrements of its array arguments (two more of them
+# per kick when the model's shared block came in beside its row: 10-15 % of a one-body
+# gravity-gradient step). The other models' torques are inlined functions themselves, and
+# numba's IR inliner does not nest them (its SSA checks fail), so they keep the regular
+# overloads below; the two cover disjoint models.
+
+
+@overload(torque_of, jit_options=overload_options(), inline="always")
+def _torque_of_inlined(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+    if _token_code(model) != gravity_gradient.CODE:
+        return None
+
+    def impl(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+        return gravity_gradient.torque(t, w, x, y, z, mp, ms)
     return impl
 
 
-def potential_of(model, code, mp, t, w, x, y, z):
+@overload(torque_of, jit_options=overload_options())
+def _torque_of(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+    c = _token_code(model)
+    if c == gravity_gradient.CODE:
+        return None  # (_torque_of_inlined)
+    if c == uniform_gravity.CODE:
+        def impl(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+            return uniform_gravity.torque(t, w, x, y, z, mp)
+    elif c == user_torque.CODE:
+        def impl(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+            return user_torque.torque(t, w, x, y, z, m1, m2, m3, p, addr, mp)
+    elif c == TORQUE_NONE:
+        def impl(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+            return 0.0, 0.0, 0.0
+    else:
+        def impl(model, code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3):
+            return torque(code, mp, ms, p, addr, t, w, x, y, z, m1, m2, m3)
+    return impl
+
+
+def potential_of(model, code, mp, ms, t, w, x, y, z):
     """:func:`potential` specialised to the model of the token ``model`` (:func:`token`):
     that model's potential where ``code`` is its code, else 0 (``code`` is a run's
     diagnostic code, the model's or ``TORQUE_NONE``); for :data:`ANY`, :func:`potential`
     of ``code``."""
-    return potential(code, mp, t, w, x, y, z)
+    return potential(code, mp, ms, t, w, x, y, z)
+
+
+@overload(potential_of, jit_options=overload_options(), inline="always")
+def _potential_of_inlined(model, code, mp, ms, t, w, x, y, z):
+    c = _token_code(model)
+    if c != gravity_gradient.CODE:
+        return None
+
+    def impl(model, code, mp, ms, t, w, x, y, z):
+        return gravity_gradient.potential(t, w, x, y, z, mp, ms) if code == c else 0.0
+    return impl
 
 
 @overload(potential_of, jit_options=overload_options())
-def _potential_of(model, code, mp, t, w, x, y, z):
+def _potential_of(model, code, mp, ms, t, w, x, y, z):
     c = _token_code(model)
+    if c == gravity_gradient.CODE:
+        return None  # (_potential_of_inlined)
     if c == uniform_gravity.CODE:
-        def impl(model, code, mp, t, w, x, y, z):
+        def impl(model, code, mp, ms, t, w, x, y, z):
             return uniform_gravity.potential(t, w, x, y, z, mp) if code == c else 0.0
-    elif c == gravity_gradient.CODE:
-        def impl(model, code, mp, t, w, x, y, z):
-            return gravity_gradient.potential(t, w, x, y, z, mp) if code == c else 0.0
     elif c == user_torque.CODE:
-        def impl(model, code, mp, t, w, x, y, z):
+        def impl(model, code, mp, ms, t, w, x, y, z):
             return user_torque.potential(t, w, x, y, z, mp) if code == c else 0.0
     elif c == TORQUE_NONE:
-        def impl(model, code, mp, t, w, x, y, z):
+        def impl(model, code, mp, ms, t, w, x, y, z):
             return 0.0
     else:
-        def impl(model, code, mp, t, w, x, y, z):
-            return potential(code, mp, t, w, x, y, z)
+        def impl(model, code, mp, ms, t, w, x, y, z):
+            return potential(code, mp, ms, t, w, x, y, z)
     return impl
 
 
 @jit
-def scratch_size(code, mp):
-    """Numbers :func:`prepare` writes for model ``code``."""
+def scratch_size(code, ms):
+    """Numbers :func:`prepare` writes for model ``code`` (shared block ``ms``)."""
     if code == gravity_gradient.CODE:
-        return gravity_gradient.scratch_size(mp)
+        return gravity_gradient.scratch_size(ms)
     return 1
 
 
 @jit(inline="always")
-def prepare(code, mp, t, scratch):
-    """The time-only part of model ``code``'s torque at ``t`` into ``scratch``, shared by
-    every body of a block (the SIMD drivers call it once per kick and block; inlined there,
-    as :func:`torque_block`: two calls with their arrays cost a gravity-gradient kick
-    about 15 %)."""
+def prepare(code, ms, t, scratch):
+    """The time-only part of model ``code``'s torque at ``t`` into ``scratch``: it reads
+    the shared block ``ms`` only, so it is the same for every body (the SIMD drivers call
+    it once per kick and block; inlined there, as :func:`torque_block`: two calls with
+    their arrays cost a gravity-gradient kick about 15 %)."""
     if code == gravity_gradient.CODE:
-        gravity_gradient.prepare(t, mp, scratch)
+        gravity_gradient.prepare(t, ms, scratch)
 
 
 @jit
@@ -152,7 +181,7 @@ def torque_prepared(code, mp, scratch, p, addr, t, w, x, y, z, m1, m2, m3):
 
 @jit
 def block_constants(code, mp):
-    """Three numbers of a body's parameter block ``mp`` that model ``code``'s block kernels
+    """Three numbers of a body's parameter row ``mp`` that model ``code``'s block kernels
     read from the SIMD drivers' gathered parameters (gathered once per block, not per kick):
     uniform gravity's weight arm, the gravity gradient's moments; zeros for the others."""
     if code == uniform_gravity.CODE:
@@ -197,36 +226,37 @@ def torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, state, r
 
 
 @jit
-def potential(code, mp, t, w, x, y, z):
-    """Potential of model ``code`` at the rotation ``q / |q|`` stands for; NaN where the
-    kernels cannot evaluate it (a user's Python potential), 0 for no model."""
+def potential(code, mp, ms, t, w, x, y, z):
+    """Potential of model ``code`` (body row ``mp``, shared block ``ms``) at the rotation
+    ``q / |q|`` stands for; NaN where the kernels cannot evaluate it (a user's Python
+    potential), 0 for no model."""
     if code == uniform_gravity.CODE:
         return uniform_gravity.potential(t, w, x, y, z, mp)
     if code == gravity_gradient.CODE:
-        return gravity_gradient.potential(t, w, x, y, z, mp)
+        return gravity_gradient.potential(t, w, x, y, z, mp, ms)
     if code == user_torque.CODE:
         return user_torque.potential(t, w, x, y, z, mp)
     return 0.0
 
 
 @jit
-def potentials(code, mp, t, q, out):
-    """``out[i] = potential(code, mp[i or 0], t[i], q[i])`` (for Python callers)."""
+def potentials(code, mp, ms, t, q, out):
+    """``out[i] = potential(code, mp[i or 0], ms, t[i], q[i])`` (for Python callers)."""
     rows = mp.shape[0]
     for i in range(q.shape[0]):
-        out[i] = potential(code, mp[i if rows > 1 else 0], t[i], q[i, 0], q[i, 1], q[i, 2],
-                           q[i, 3])
+        out[i] = potential(code, mp[i if rows > 1 else 0], ms, t[i], q[i, 0], q[i, 1],
+                           q[i, 2], q[i, 3])
 
 
 @jit
-def torque_bound(code, mp):
+def torque_bound(code, mp, ms):
     """A bound on ``|torque|`` at unit ``|q|`` over every orientation and time (for the
     SIMD drivers' fast path: how far the kicks can grow ``|m|``); inf where none is known
     (a user torque)."""
     if code == uniform_gravity.CODE:
         return uniform_gravity.torque_bound(mp)
     if code == gravity_gradient.CODE:
-        return gravity_gradient.torque_bound(mp)
+        return gravity_gradient.torque_bound(mp, ms)
     if code == user_torque.CODE:
         return math.inf
     return 0.0

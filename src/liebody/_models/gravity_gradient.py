@@ -1,11 +1,13 @@
 """The gravity-gradient torque of point masses on an extended body.
 
-Parameter block: ``(I1, I2, I3, K)`` then ``K`` sources one after the other, each
-``(GM, orbit row)``: the orbit (``liebody._models.orbit``: its first number is its kind,
-and its length follows from the row, ``orbit.size``: 12 numbers for a Kepler orbit,
-``6 + 4 m`` for a table of ``m`` samples) gives the source's position ``r`` seen from the
-body's centre of mass in the inertial frame. The kernels walk the sources in order
-(source ``s + 1`` starts after source ``s``'s orbit row). With ``r_b = R(q)^T r`` (body
+Parameters: a body's row ``mp = (I1, I2, I3)``, its principal moments, and the block
+``ms`` that every body of an ensemble shares (stored once, whatever the inertia):
+``K``, then ``K`` sources one after the other, each ``(GM, orbit row)``: the orbit
+(``liebody._models.orbit``: its first number is its kind, and its length follows from the
+row, ``orbit.size``: 12 numbers for a Kepler orbit, ``6 + 4 m`` for a table of ``m``
+samples) gives the source's position ``r`` seen from the body's centre of mass in the
+inertial frame. The kernels walk the sources in order (source ``s + 1`` starts after
+source ``s``'s orbit row). With ``r_b = R(q)^T r`` (body
 frame):
 
 * torque ``tau = sum_k 3 GM_k / r_k^5 (r_b x I r_b)``;
@@ -30,7 +32,9 @@ from liebody._models import orbit
 CODE = TORQUE_GRAVITY_GRADIENT
 #: whether the torque may depend on the momentum (no: the orientation and time only)
 MOMENTUM = False
-HEAD = 4  # I1, I2, I3, K
+#: numbers of a body's row (I1, I2, I3); the shared block starts with K, the sources after
+ROW = 3
+HEAD = 1
 
 
 @jit(inline="always")
@@ -59,42 +63,44 @@ def _pull(w, x, y, z, I1, I2, I3, X, Y, Z, f):
 
 
 @jit
-def torque(t, w, x, y, z, mp):
+def torque(t, w, x, y, z, mp, ms):
+    I1, I2, I3 = mp[0], mp[1], mp[2]
     t1 = t2 = t3 = 0.0
     k = HEAD
-    for _ in range(int(mp[3])):
-        X, Y, Z = orbit.position(mp, k + 1, t)
-        a, b, c = _pull(w, x, y, z, mp[0], mp[1], mp[2], X, Y, Z, _strength(mp[k], X, Y, Z))
+    for _ in range(int(ms[0])):
+        X, Y, Z = orbit.position(ms, k + 1, t)
+        a, b, c = _pull(w, x, y, z, I1, I2, I3, X, Y, Z, _strength(ms[k], X, Y, Z))
         t1 += a
         t2 += b
         t3 += c
-        k += 1 + orbit.size(mp, k + 1)
+        k += 1 + orbit.size(ms, k + 1)
     return t1, t2, t3
 
 
 @jit
-def scratch_size(mp):
+def scratch_size(ms):
     """Numbers :func:`prepare` writes: the position and :func:`_strength` of every source."""
-    return 4 * int(mp[3])
+    return 4 * int(ms[0])
 
 
 @jit
-def prepare(t, mp, scratch):
+def prepare(t, ms, scratch):
     """The part of the torque that depends on the time only, the same for every body of an
-    ensemble (the sources are shared): the sources' positions at ``t``, into ``scratch``."""
+    ensemble (the sources are shared): the sources' positions at ``t`` and their
+    :func:`_strength`, into ``scratch``."""
     k = HEAD
-    for s in range(int(mp[3])):
-        X, Y, Z = orbit.position(mp, k + 1, t)
+    for s in range(int(ms[0])):
+        X, Y, Z = orbit.position(ms, k + 1, t)
         scratch[4 * s], scratch[4 * s + 1], scratch[4 * s + 2] = X, Y, Z
-        scratch[4 * s + 3] = _strength(mp[k], X, Y, Z)
-        k += 1 + orbit.size(mp, k + 1)
+        scratch[4 * s + 3] = _strength(ms[k], X, Y, Z)
+        k += 1 + orbit.size(ms, k + 1)
 
 
 @jit
 def torque_prepared(scratch, w, x, y, z, mp):
     """:func:`torque` from :func:`prepare`'s numbers (the same arithmetic, bit for bit)."""
     t1 = t2 = t3 = 0.0
-    for s in range(int(mp[3])):
+    for s in range(scratch.shape[0] // 4):
         a, b, c = _pull(w, x, y, z, mp[0], mp[1], mp[2], scratch[4 * s], scratch[4 * s + 1],
                         scratch[4 * s + 2], scratch[4 * s + 3])
         t1 += a
@@ -105,7 +111,7 @@ def torque_prepared(scratch, w, x, y, z, mp):
 
 @jit
 def block_constants(mp):
-    """The numbers of a body's parameter block that :func:`torque_block` reads from the
+    """The numbers of a body's parameter row that :func:`torque_block` reads from the
     gathered parameters (once per block, not per kick): its moments ``I1, I2, I3``."""
     return mp[0], mp[1], mp[2]
 
@@ -133,24 +139,24 @@ def torque_block(scratch, par, j, nb, state, rows, work):
 
 
 @jit
-def potential(t, w, x, y, z, mp):
+def potential(t, w, x, y, z, mp, ms):
     n = math.sqrt(w * w + x * x + y * y + z * z)
     w, x, y, z = w / n, x / n, y / n, z / n
     I1, I2, I3 = mp[0], mp[1], mp[2]
     V = 0.0
     k = HEAD
-    for _ in range(int(mp[3])):
-        X, Y, Z = orbit.position(mp, k + 1, t)
+    for _ in range(int(ms[0])):
+        X, Y, Z = orbit.position(ms, k + 1, t)
         r1, r2, r3 = qrotate_inv(w, x, y, z, X, Y, Z)
         rr = r1 * r1 + r2 * r2 + r3 * r3
-        V += 1.5 * mp[k] / (rr * rr * math.sqrt(rr)) * (I1 * r1 * r1 + I2 * r2 * r2
+        V += 1.5 * ms[k] / (rr * rr * math.sqrt(rr)) * (I1 * r1 * r1 + I2 * r2 * r2
                                                          + I3 * r3 * r3)
-        k += 1 + orbit.size(mp, k + 1)
+        k += 1 + orbit.size(ms, k + 1)
     return V
 
 
 @jit
-def torque_bound(mp):
+def torque_bound(mp, ms):
     """``|r x I r| = |r x (I - I_min) r| <= (I_max - I_min) r^2``, and ``r`` is at least
     the orbit's ``orbit.min_distance`` (the pericentre distance ``a (1 - e)``; for a table
     a lower bound on its interpolant's distance): ``sum_k 3 GM_k (I_max - I_min) /
@@ -158,10 +164,10 @@ def torque_bound(mp):
     spread = max(mp[0], mp[1], mp[2]) - min(mp[0], mp[1], mp[2])
     b = 0.0
     k = HEAD
-    for _ in range(int(mp[3])):
-        r = orbit.min_distance(mp, k + 1)
+    for _ in range(int(ms[0])):
+        r = orbit.min_distance(ms, k + 1)
         if not r > 0.0:
             return math.inf
-        b += 3.0 * mp[k] * spread / (r * r * r)
-        k += 1 + orbit.size(mp, k + 1)
+        b += 3.0 * ms[k] * spread / (r * r * r)
+        k += 1 + orbit.size(ms, k + 1)
     return b * (1.0 + 1e-12)

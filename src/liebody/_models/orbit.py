@@ -20,7 +20,7 @@ An orbit is a row of numbers whose first is its kind:
   gives NaN: the torque is not finite and the run stops there.
 
 :func:`size` gives a row's length, so that rows of either kind can follow one another
-in a model's parameter block. Built by :mod:`liebody.orbits`.
+in a model's parameters (the gravity gradient's shared block). Built by :mod:`liebody.orbits`.
 """
 
 from __future__ import annotations
