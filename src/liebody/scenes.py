@@ -688,14 +688,17 @@ class GravityGradient(Scene):
     satellite or a planet turns fast under a weak torque: the free motion is most of
     the motion, and its exact flow leaves only the small error of splitting off the
     torque. On the spacecraft of the method guide (``I = (100, 120, 80)``, tumbling
-    near its intermediate axis at 0.5 rad/s in low Earth orbit, one day) this is 10-12
-    times cheaper than ``rk4`` from 1e-2 to 1e-4 rad, while the axis splitting between
-    the kicks is still 0.027 rad off after 13.8 million steps (the chart: ``python -m
-    bench.work_precision --satellite``, in the method guide). A satellite librating
-    slowly about its orbital frame gains nothing from the exact drift (its step costs
-    2.5-5 times more per error there), so a body turning about as slowly as its orbit
-    keeps the axis splitting, which an ensemble runs on the SIMD kernels. A gyrostat keeps
-    the axis splitting (the exact flow is the rigid body's).
+    near its intermediate axis at 0.5 rad/s in low Earth orbit, one day) this is the
+    cheapest method at 1e-2 rad (17 times cheaper than ``rk4``), while the axis
+    splitting between the kicks is still 0.027 rad off after 6.9 million steps (the
+    chart: ``python -m bench.work_precision --satellite``, in the method guide). For
+    tighter accuracy take ``saba2``, ``saba3`` or ``saba4`` (Laskar & Robutel's SABA_n:
+    the exact free flow between kicks at the Gauss-Legendre nodes, error
+    ``O(eps h^(2n) + eps^2 h^2)`` for a torque of relative strength ``eps``), the
+    cheapest at 1e-4 and 1e-6 rad there. A satellite librating slowly about its orbital
+    frame gains nothing from the exact drift, so a body turning about as slowly as its
+    orbit keeps the axis splitting, which an ensemble runs on the SIMD kernels. A
+    gyrostat keeps the axis splitting (the exact flow is the rigid body's).
 
     The torque depends on the orientation and the time only, so a kick with ``q`` fixed
     is its exact flow: the splittings and their compositions are symplectic (for the
