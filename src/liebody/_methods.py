@@ -35,10 +35,29 @@ from liebody.scenes import _memo as memo
 
 #: one-body plans kept (least recently used dropped first)
 PLAN_CACHE_SIZE = 128
-#: (method name, id(scene), h, m0 bytes) -> (method, scene, plan)
+#: (method name, id(scene), h[, m0 bytes]) -> (method, scene, plan), and (method name,
+#: id(scene), h, None, key) -> the plan shared by the states of one key
 _PLANS: OrderedDict = OrderedDict()
 #: method name -> its last plan, ``(method, scene, h, m0 bytes or None, plan)``
 _LAST: dict = {}
+
+
+def _touch(key) -> None:
+    """Mark a plan of the cache as just used."""
+    try:  # noqa: SIM105 - (contextlib.suppress costs 0.3 us a call)
+        _PLANS.move_to_end(key)
+    except KeyError:  # evicted meanwhile by another thread
+        pass
+
+
+def _keep(key, entry) -> None:
+    """Cache a plan, dropping the least recently used beyond :data:`PLAN_CACHE_SIZE`."""
+    _PLANS[key] = entry
+    while len(_PLANS) > PLAN_CACHE_SIZE:
+        try:
+            _PLANS.popitem(last=False)
+        except KeyError:  # emptied meanwhile by another thread
+            break
 
 __all__ = ["COMPOSITIONS", "CoefficientReport", "Handles", "Method", "MethodTable",
            "composition_report", "get", "methods", "register", "register_composition",
@@ -171,8 +190,12 @@ class Method:
         recipe read the initial state to build it (an axis ordering chosen for the
         orbit, Hairer-Vilmart's modified moments): repeated calls with one scene skip
         the set-up, and so do calls from new initial states for methods whose plan does
-        not depend on them. A cached plan is shared: never write to its arrays (copy
-        ``params`` first, as the drivers' callers do for the controls).
+        not depend on them. A recipe :attr:`~liebody._plan.Recipe.keyed_by_state` (the
+        splittings: its plan depends on the state only through the orbit's choices, its
+        key) shares one plan among the states of one key, each with its own ``info``:
+        a new initial state then costs its choices only. A cached plan is shared: never
+        write to its arrays (copy ``params`` first, as the drivers' callers do for the
+        controls).
         """
         if m0.__class__ is not np.ndarray or m0.shape != (3,) or m0.dtype is not F64:
             m0 = np.asarray(m0, dtype=float).reshape(3)
@@ -188,19 +211,39 @@ class Method:
             key = (*any_state, m0.tobytes())
             entry = _PLANS.get(key)
         if entry is not None and entry[0] is self and entry[1] is scene:
-            try:  # noqa: SIM105 - (contextlib.suppress costs 0.3 us a call)
-                _PLANS.move_to_end(key)
-            except KeyError:  # evicted meanwhile by another thread
-                pass
+            _touch(key)
             plan = entry[2]
         else:
             bodies = P.Bodies.of(scene, m0.reshape(1, 3))
-            (_, plan), = self._plans_of(bodies, h)
+            plan = self._keyed_plan(scene, bodies, h, any_state)
+            if plan is None:
+                (_, plan), = self._plans_of(bodies, h)
             key = (*any_state, m0.tobytes()) if bodies.orbit_read[0] else any_state
-            _PLANS[key] = (self, scene, plan)  # the scene is kept: its id stays unique
-            if len(_PLANS) > PLAN_CACHE_SIZE:
-                _PLANS.popitem(last=False)
+            _keep(key, (self, scene, plan))  # the scene is kept: its id stays unique
         _LAST[self.name] = (self, scene, h, key[3] if len(key) > 3 else None, plan)
+        return plan
+
+    def _keyed_plan(self, scene, bodies: P.Bodies, h: float, any_state: tuple) -> P.Plan | None:
+        """The plan of one body from a recipe keyed by state, shared by the states of its
+        key (cached per key, beside the plans per state), or ``None`` for a recipe that
+        is not keyed by state or a plan that reads no state."""
+        recipe = self.recipe
+        if not recipe.keyed_by_state:
+            return None
+        try:
+            key = int(recipe.keys(bodies, h)[0])
+            if not bodies.orbit_read[0]:
+                return None  # the same plan for every state (cached without it)
+            by_key = (*any_state, None, key)
+            entry = _PLANS.get(by_key)
+            if entry is not None and entry[0] is self and entry[1] is scene:
+                _touch(by_key)
+                shared = entry[2]
+                return shared.with_info({**shared.info, **recipe.state_info(bodies, h, key)})
+            plan = P.plan_of_key(recipe, bodies, h, key)
+        except ValueError as exc:  # a recipe's refusal: say which method refused
+            raise ValueError(f"{self.name}: {exc}") from None
+        _keep(by_key, (self, scene, plan))
         return plan
 
     def plans(self, scene, m0, h: float) -> list[tuple[np.ndarray, P.Plan]]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 
 import numpy as np
 
@@ -215,9 +216,112 @@ def _best(pieces_of, moments: tuple, u0: tuple) -> tuple[tuple[int, int, int], f
     The same arithmetic as :func:`best_orderings` (one body), so a body of an ensemble
     gets the choice it gets alone.
     """
+    best = _best_scalar(_one_body_h3_rows(pieces_of, moments), _one_orbit_w(moments, u0))
+    if best is not None:
+        return best
     k, scores = _best_rows(pieces_of, np.array([moments]), np.sqrt(np.array([u0])),
                            _one_orbit(moments, u0), _one_body_h3(pieces_of, moments))
     return ORDERINGS[int(k[0])], float(scores[0])
+
+
+@functools.lru_cache(maxsize=256)
+def _one_body_direction(moments: tuple) -> tuple | None:
+    """The direction in ``u = m^2`` of one body's orbit segments (:func:`orbit_segments`)
+    as numbers, and the signs that pick their bounds; ``None`` where every orbit is a
+    point (a sphere)."""
+    inv = 1.0 / np.array([moments])
+    d = _cross(np.ones_like(inv), inv)
+    dn = np.linalg.norm(d, axis=-1)
+    if dn[0] == 0.0:
+        return None
+    d = (d / dn[:, None])[0].tolist()
+    return d, [1 if v > 1e-14 else -1 if v < -1e-14 else 0 for v in d]
+
+
+@functools.lru_cache(maxsize=256)
+def _one_body_h3_rows(pieces_of, moments: tuple) -> list:
+    """:func:`_one_body_h3` as numbers: the ``H3`` vector of every ordering."""
+    return _one_body_h3(pieces_of, moments)[:, 0, :].tolist()
+
+
+@functools.lru_cache(maxsize=256)
+def _one_orbit_w(moments: tuple, u0: tuple):
+    """What :func:`_best_rows` scores every splitting family on, for one body's orbit, in
+    Python numbers: ``w`` of the three samples and the squared norm (``(W, g2)``), ``()``
+    for an orbit that is a point, ``None`` where a number is not finite. The same
+    floating-point operations in the same order as :func:`orbit_segments` and
+    :func:`_best_rows` (the sums of three terms left to right as numpy's), so the same
+    bits."""
+    direction = _one_body_direction(moments)
+    m = [math.sqrt(v) for v in u0]
+    u = [v * v for v in m]  # (orbit_segments squares the momenta it is given)
+    g2 = (u[0] + u[1]) + u[2]
+    point = direction is None or not (u[0] or u[1] or u[2])
+    if not point:
+        d, sides = direction
+        lo, hi = -math.inf, math.inf
+        for i in range(3):
+            if sides[i]:
+                bound = -u[i] / d[i]
+                if sides[i] > 0:
+                    lo = bound if bound > lo else lo
+                else:
+                    hi = bound if bound < hi else hi
+        point = not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo
+    if point:  # a steady rotation (or a sphere's orbit)
+        return ()
+    if not math.isfinite(g2):
+        return None
+    g2 = g2 if g2 > 0.0 else 1.0
+    width = hi - lo
+    W = []
+    for c in (0.0, 0.5, 1.0):
+        s = lo + width * c
+        w = []
+        for i in range(3):
+            x = u[i] + s * d[i]
+            x = math.sqrt(x if x > 0.0 else 0.0)
+            w.append((x * x) / g2)
+        u1, u2, u3 = w
+        W.append((u1 * (u3 - u2), u2 * (u1 - u3), u3 * (u2 - u1)))
+    return W, g2
+
+
+def _best_scalar(V: list, orbit) -> tuple[tuple[int, int, int], float] | None:
+    """:func:`_best_rows` of one body in Python numbers (``V``: :func:`_one_body_h3_rows`,
+    ``orbit``: :func:`_one_orbit_w`): the same floating-point operations in the same
+    order, ``max``/``min`` giving the second of equal numbers as ``np.maximum``/
+    ``np.minimum``, the first of equal scores as ``np.argmin``, so the same choice and
+    score bits at a fraction of the cost of numpy's calls on arrays of one row. ``None``
+    where a number is not finite (extreme moments or momenta): :func:`_best_rows` then
+    decides, with its own rules for infinities and NaN."""
+    if orbit is None:
+        return None
+    if not orbit:  # a point: every ordering scores 0
+        return ORDERINGS[0], 0.0
+    ((a0, a1, a2), (b0, b1, b2), (c0, c1, c2)), g2 = orbit
+    best_k, best = 0, math.inf
+    for k, (v0, v1, v2) in enumerate(V):
+        f0 = ((v0 * a0 + v1 * a1) + v2 * a2) * g2 * g2
+        f1 = ((v0 * b0 + v1 * b1) + v2 * b2) * g2 * g2
+        f2 = ((v0 * c0 + v1 * c1) + v2 * c2) * g2 * g2
+        a = 2.0 * ((f0 - 2.0 * f1) + f2)
+        b = (f2 - f0) - a
+        fv = f0
+        if a != 0.0:
+            s = -b / (2.0 * a)
+            if 0.0 < s < 1.0:
+                fv = f0 + s * (b + a * s)
+        hi = f0 if f0 > f2 else f2
+        hi = hi if hi > fv else fv
+        lo = f0 if f0 < f2 else f2
+        lo = lo if lo < fv else fv
+        score = hi - lo
+        if not math.isfinite(score):
+            return None
+        if score < best:
+            best_k, best = k, score
+    return ORDERINGS[best_k], best
 
 
 @functools.lru_cache(maxsize=256)
@@ -239,6 +343,9 @@ def _one_body_h3(pieces_of, moments: tuple) -> np.ndarray:
 
 
 def _key(moments, m0) -> tuple[tuple, tuple]:
+    if (moments.__class__ is np.ndarray and m0.__class__ is np.ndarray
+            and moments.dtype == np.float64 and m0.dtype == np.float64):
+        return tuple(moments.tolist()), tuple(float(v) ** 2 for v in m0.tolist())
     return tuple(float(v) for v in moments), tuple(float(v) ** 2 for v in m0)
 
 
@@ -283,6 +390,10 @@ def best_orderings(pieces_of, moments, m0) -> tuple[np.ndarray, np.ndarray]:
     """:func:`best_axis_ordering` (``pieces_of = axis_pieces``) or :func:`best_sr2_variant`
     (``sr2_pieces``) for many bodies at once: the index into :data:`ORDERINGS` and the
     energy-error constant of each body, arrays ``(N,)``."""
+    if (moments.__class__ is np.ndarray and m0.__class__ is np.ndarray
+            and moments.shape == m0.shape == (1, 3)):  # one body (Bodies' rows), at once
+        order, score = _best(pieces_of, *_key(moments[0], m0[0]))
+        return np.array([ORDERINGS.index(order)]), np.array([score])
     moments = np.atleast_2d(np.asarray(moments, dtype=float))
     m0 = np.atleast_2d(np.asarray(m0, dtype=float))
     if moments.shape[0] == 1 and m0.shape[0] == 1:  # one body: the cached route

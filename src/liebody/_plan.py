@@ -100,7 +100,15 @@ class Bodies:
         mp = model.params
         eps = np.asarray(scene.dissipation, dtype=float)
         rotor = getattr(scene, "rotor_momentum", None)
-        rotor = np.zeros(3) if rotor is None else np.asarray(rotor, dtype=float)
+        rotor = _NO_ROTOR if rotor is None else np.asarray(rotor, dtype=float)
+        if (m0.shape == (1, 3) and moments.shape == (3,) and eps.ndim == 0
+                and rotor.shape == (3,) and mp.shape[0] == 1):  # one body: no broadcasting
+            return cls(moments.reshape(1, 3), m0, mp, eps.reshape(1), rotor.reshape(1, 3),
+                       scene.capabilities, scene.free_flow, model.code,
+                       bool(getattr(scene, "moving_rotor", False)),
+                       auto_flow=getattr(scene, "auto_free_flow", "axes"),
+                       orbit_rate=float(getattr(scene, "orbit_rate", 0.0)),
+                       model_shared=model.shared)
         n = np.broadcast_shapes(m0.shape[:-1], moments.shape[:-1], eps.shape,
                                 rotor.shape[:-1], mp.shape[:1] if mp.shape[0] > 1 else ())
         size = int(np.prod(n)) if n else 1
@@ -136,6 +144,8 @@ class Bodies:
     def has_rotor(self) -> bool:
         """Whether any body is a gyrostat (carries rotor momentum, or wheels whose
         momentum changes); computed once (the recipes ask for it at every stage)."""
+        if self.rotor.shape == (1, 3):  # one body: three numbers
+            return self.moving_rotor or any(v != 0.0 for v in self.rotor[0].tolist())
         return self.moving_rotor or bool(np.any(self.rotor != 0.0))
 
     @property
@@ -202,6 +212,11 @@ class Bodies:
 
 def combine(*codes) -> np.ndarray:
     """One integer key per body from small non-negative integer codes (each < 16)."""
+    if all(np.shape(c) in ((), (1,)) for c in codes) and any(np.ndim(c) for c in codes):
+        key = 0  # one body: the same sum in Python integers
+        for c in codes:
+            key = key * 16 + int(c[0] if np.ndim(c) else c)
+        return np.array([key], dtype=np.int64)
     key = np.zeros(np.broadcast_shapes(*(np.shape(c) for c in codes)), dtype=np.int64)
     for c in codes:
         key = key * 16 + np.asarray(c, dtype=np.int64)
@@ -384,6 +399,14 @@ class Plan:
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
 
+    def with_info(self, info: dict) -> Plan:
+        """This plan with another ``info`` (an initial state of the same key): the arrays
+        and the resolved entry points are shared."""
+        out = object.__new__(Plan)
+        out.__dict__.update(self.__dict__)
+        out.info = info
+        return out
+
 
 def body_rows(a: np.ndarray, c) -> np.ndarray:
     """The rows of the bodies ``c`` (a slice) of a per-body array, or its one shared row
@@ -391,6 +414,9 @@ def body_rows(a: np.ndarray, c) -> np.ndarray:
     return a if a.shape[0] == 1 else a[c]
 
 
+#: the rotor momentum of a rigid body
+_NO_ROTOR = np.zeros(3)
+_NO_ROTOR.flags.writeable = False
 #: the parameter block of a scene without a torque model
 _NO_MODEL = np.zeros((1, 1))
 _NO_MODEL.flags.writeable = False
@@ -608,6 +634,13 @@ class Recipe:
     #: whether the stages' parameters depend on the step ``h`` (not only their lengths):
     #: a composition then builds each substep for its own length
     step_dependent: bool = False
+    #: whether the stages depend on the initial state only through :meth:`keys` (the
+    #: choices of an orbit, such as its axis ordering) and ``info`` only through
+    #: :meth:`state_info`: a one-body plan is then shared by every initial state of one
+    #: key, with its own ``info``. False (the plan is made per initial state) for a
+    #: recipe whose stage parameters vary with the state (Hairer-Vilmart's modified
+    #: moments) and for any recipe that does not say
+    keyed_by_state: bool = False
 
     def keys(self, b: Bodies, h: float) -> np.ndarray:
         return np.zeros(len(b), dtype=np.int64)
@@ -615,14 +648,22 @@ class Recipe:
     def stages(self, b: Bodies, h: float, key: int) -> tuple[list[Stage], dict]:  # pragma: no cover
         raise NotImplementedError
 
+    def state_info(self, b: Bodies, h: float, key: int) -> dict:
+        """The entries of ``stages(b, h, key)[1]`` that depend on the initial state beyond
+        the key (an orbit's energy-error constant), for a recipe :attr:`keyed_by_state`."""
+        return {}
+
 
 class FreeFlowRecipe(Recipe):
     """A free-body flow; on a torqued or damped scene, the drift of ``side-drift-side``.
 
     Subclasses give :meth:`free_keys` / :meth:`free` (the method on a free body) and may
     override :meth:`drift_keys` / :meth:`drift` (the free flow between kicks; by default
-    the same).
+    the same), and :meth:`free_info` / :meth:`drift_info` (their entries of ``info`` that
+    depend on the initial state beyond the key).
     """
+
+    keyed_by_state = True
 
     def free_keys(self, b: Bodies, h: float) -> np.ndarray:
         return np.zeros(len(b), dtype=np.int64)
@@ -643,6 +684,17 @@ class FreeFlowRecipe(Recipe):
         if b.capabilities.free:
             return self.free(b, h, key)
         return scene_step(b, *self.drift(b, h, key))
+
+    def free_info(self, b: Bodies, h: float, key: int) -> dict:
+        return {}
+
+    def drift_info(self, b: Bodies, h: float, key: int) -> dict:
+        return self.free_info(b, h, key)
+
+    def state_info(self, b, h, key):
+        if b.capabilities.free:
+            return self.free_info(b, h, key)
+        return self.drift_info(b, h, key)
 
 
 def _ordering_keys(b: Bodies, pieces_of, fixed=None):
@@ -676,17 +728,23 @@ class AxisSplitting(FreeFlowRecipe):
     def free(self, b, h, key):
         sym1, order = split(key, 2)
         ordering = _ordering.ORDERINGS[order]
-        info = {"axis_ordering": ordering}
-        if self.ordering is None:
-            _, score = b.orderings(_ordering.axis_pieces)
-            info["energy_error_constant"] = _one(score)
+        info = {"axis_ordering": ordering, **self.free_info(b, h, key)}
         return axis_stages(b, ordering, sym1 - 1), info
+
+    def free_info(self, b, h, key):
+        if self.ordering is not None:
+            return {}
+        _, score = b.orderings(_ordering.axis_pieces)
+        return {"energy_error_constant": _one(score)}
 
     def drift_keys(self, b, h):
         return drift_keys(b, self.ordering)
 
     def drift(self, b, h, key):
         return drift_stages(b, key)
+
+    def drift_info(self, b, h, key):
+        return {}
 
 
 def _one(values: np.ndarray):
@@ -709,9 +767,12 @@ class SR2Splitting(FreeFlowRecipe):
         b.require_rigid("SR2's symmetric-body flow")
         sym1, order = split(key, 2)
         variant = _ordering.ORDERINGS[order]
-        _, score = b.orderings(_ordering.sr2_pieces)
         return sr2_stages(b, variant, sym1 - 1), {"sr2_variant": variant,
-                                                  "energy_error_constant": _one(score)}
+                                                  **self.free_info(b, h, key)}
+
+    def free_info(self, b, h, key):
+        _, score = b.orderings(_ordering.sr2_pieces)
+        return {"energy_error_constant": _one(score)}
 
     def drift(self, b, h, key):
         raise ValueError("SR2 has no drift between kicks: it integrates free bodies only")
@@ -738,13 +799,15 @@ class BestSplitting(FreeFlowRecipe):
         use_sr2, sym1, order = split(key, 3)
         ordering = _ordering.ORDERINGS[order]
         if use_sr2:
-            _, score = b.orderings(_ordering.sr2_pieces)
             return sr2_stages(b, ordering, sym1 - 1), {
-                "base": "sr2", "sr2_variant": ordering, "energy_error_constant": _one(score)}
-        _, score = b.orderings(_ordering.axis_pieces)
+                "base": "sr2", "sr2_variant": ordering, **self.free_info(b, h, key)}
         return axis_stages(b, ordering, sym1 - 1), {
-            "base": "splitting2", "axis_ordering": ordering,
-            "energy_error_constant": _one(score)}
+            "base": "splitting2", "axis_ordering": ordering, **self.free_info(b, h, key)}
+
+    def free_info(self, b, h, key):
+        family = _ordering.sr2_pieces if split(key, 3)[0] else _ordering.axis_pieces
+        _, score = b.orderings(family)
+        return {"energy_error_constant": _one(score)}
 
     def drift_keys(self, b, h):
         keys = drift_keys(b)
@@ -763,6 +826,11 @@ class BestSplitting(FreeFlowRecipe):
             stages, info = self.free(b, h, key - _DRIFT_SR2_KEYS)
             return stages, {**info, "free_flow": f"sr2 {info['sr2_variant']}"}
         return drift_stages(b, key)
+
+    def drift_info(self, b, h, key):
+        if key >= _DRIFT_SR2_KEYS:
+            return self.free_info(b, h, key - _DRIFT_SR2_KEYS)
+        return {}
 
 
 #: offset of BestSplitting's SR2 drift keys (above every key of ``drift_keys``)
@@ -788,6 +856,11 @@ class DMVFlow(FreeFlowRecipe):
     def step_dependent(self) -> bool:
         """The preprocessed orders' modified moments depend on ``h``."""
         return self.order > 2
+
+    @property
+    def keyed_by_state(self) -> bool:
+        """The preprocessed orders' modified moments vary with the initial state."""
+        return self.order == 2
 
     def free(self, b, h, key):
         b.require_rigid("the discrete Moser-Veselov step (RATTLE)")
@@ -849,6 +922,15 @@ class Composition(Recipe):
     @property
     def step_dependent(self) -> bool:
         return self.base.step_dependent
+
+    @property
+    def keyed_by_state(self) -> bool:
+        return self.base.keyed_by_state
+
+    def state_info(self, b, h, key):
+        if self.base.step_dependent:  # the info of the first substep (see stages)
+            return self.base.state_info(b, self.coefficients[0] * h, key)
+        return self.base.state_info(b, h, key)
 
 
 #: the sub-flows a :class:`FlowSequence` is made of
@@ -923,6 +1005,8 @@ class FlowSequence(Recipe):
         return all(abs(before[i] + before[last - i] - clock) <= 1e-14
                    for i, (name, _, _) in enumerate(self.flows) if name == "kick")
 
+    keyed_by_state = True
+
     def keys(self, b, h):
         return b.symmetry + 1  # recurring rotations depend on the symmetry axis
 
@@ -955,6 +1039,7 @@ class Baseline(Recipe):
     """A classical one-stage method on ``(q, L)``: torque and dissipation inside the stage."""
 
     kind: int
+    keyed_by_state = True
 
     def __post_init__(self) -> None:
         if self.kind not in (S.EULER, S.RK4, S.LIE_EULER, S.RKMK4):
@@ -973,10 +1058,14 @@ def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, P
     for key in (keys.tolist() if len(keys) == 1 else np.unique(keys)):
         idx = np.flatnonzero(keys == key)
         sub = b if len(idx) == len(b) else b.take(idx)
-        stages, info = recipe.stages(sub, h, int(key))
-        out.append((idx, compile_plan(stages, info, len(idx), sub.model_params,
-                                      sub.model_shared)))
+        out.append((idx, plan_of_key(recipe, sub, h, int(key))))
     return out
+
+
+def plan_of_key(recipe: Recipe, b: Bodies, h: float, key: int) -> Plan:
+    """The recipe's plan for the bodies ``b``, which share the key ``key``."""
+    stages, info = recipe.stages(b, h, key)
+    return compile_plan(stages, info, len(b), b.model_params, b.model_shared)
 
 
 # ----------------------------------------------------------------------------------------

@@ -204,3 +204,101 @@ def test_plans_are_shared_between_initial_states_when_they_do_not_depend_on_them
         np.testing.assert_array_equal(x, y)
     assert second.info.keys() == fresh.info.keys()
     assert m.plan(sc, a, 0.01) is first  # and the first state's plan is still cached
+
+
+def _counting_compiles(monkeypatch) -> list:
+    """Count the plans compiled (every recipe's plan goes through ``compile_plan``)."""
+    calls = []
+    compile_plan = P.compile_plan
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return compile_plan(*args, **kwargs)
+
+    monkeypatch.setattr(P, "compile_plan", counted)
+    return calls
+
+
+def _scene(kind: str):
+    body = liebody.RigidBody([1.0, 2.0, 3.0])  # asymmetric
+    if kind == "free":
+        return liebody.FreeBody(body)
+    return liebody.HeavyTop(body, mass=1.0, cm=[0.0, 0.0, 0.1])
+
+
+#: states on neighbouring orbits about axis 2 (the same key: ordering, base, drift)
+_NEIGHBOURS = [np.array([0.3, 1.0, 0.2]) * (1.0 + 0.01 * k) + np.array([0.0, 0.0, 0.003 * k])
+               for k in range(4)]
+
+
+@pytest.mark.parametrize(("name", "scene"), [
+    ("splitting2", "free"), ("splitting2", "top"), ("sr2", "free"), ("no_squish", "free"),
+    ("splitting4", "free"), ("splitting4", "top"), ("splitting6", "free")])
+def test_a_new_state_of_a_known_key_compiles_no_plan(monkeypatch, name, scene):
+    """A splitting's plan depends on the initial state only through its recipe's key (the
+    axis ordering or SR2 variant chosen for the orbit, the drift): a new initial state of
+    a key already planned reuses that plan's arrays and compiles nothing, and its plan
+    equals the plan made afresh for it, ``info`` included (its own energy-error
+    constant)."""
+    sc, m = _scene(scene), _methods.get(name)
+    keys = [int(m.recipe.keys(P.Bodies.of(sc, x[None]), 0.01)[0]) for x in _NEIGHBOURS]
+    assert len(set(keys)) == 1  # (the premise: one key)
+    calls = _counting_compiles(monkeypatch)
+    first = m.plan(sc, _NEIGHBOURS[0], 0.01)
+    assert len(calls) == 1
+    for x in _NEIGHBOURS[1:]:
+        before = len(calls)
+        plan = m.plan(sc, x, 0.01)
+        assert len(calls) == before, "a new state of a known key compiled a plan"
+        assert plan.params is first.params and plan.kinds is first.kinds
+        (_, fresh), = m.plans(sc, x[None], 0.01)
+        for a, b in zip(_plan_arrays(plan), _plan_arrays(fresh), strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert (plan.merge_ends, plan.family) == (fresh.merge_ends, fresh.family)
+        assert repr(plan.info) == repr(fresh.info)  # the same entries, in the same order
+        assert m.plan(sc, x, 0.01) is plan  # (and it is cached for its state)
+
+
+@pytest.mark.parametrize("name", ["splitting2", "sr2", "splitting4"])
+def test_plans_shared_by_a_key_give_each_state_its_own_info(name):
+    """The states of one key share a plan's arrays but each gets its own ``info``: the
+    energy-error constant of its orbit (the range of Fasso's ``H3`` over it,
+    :mod:`liebody._ordering`), which differs from state to state; ``Trajectory.info`` is
+    the state's, whichever state planned first."""
+    sc, m = _scene("free"), _methods.get(name)
+    plans = [m.plan(sc, x, 0.01) for x in _NEIGHBOURS]
+    constants = [p.info["energy_error_constant"] for p in plans]
+    assert len(set(constants)) == len(constants)
+    for x, plan, c in zip(_NEIGHBOURS, plans, constants, strict=True):
+        if name == "sr2" or plan.info.get("base") == "sr2":
+            variant, ref = _ordering_best("sr2", sc.moments, x)
+            assert plan.info["sr2_variant"] == variant
+        else:
+            variant, ref = _ordering_best("axes", sc.moments, x)
+            assert plan.info["axis_ordering"] == variant
+        assert c == ref
+        tr = liebody.integrate(sc, L0=x, dt=0.01, steps=2, method=name)
+        assert tr.info["energy_error_constant"] == c
+
+
+def _ordering_best(family, moments, m0):
+    from liebody import _ordering as O
+    pieces = O.axis_pieces if family == "axes" else O.sr2_pieces
+    k, score = O._best_rows(pieces, np.array([moments]), np.abs(np.array([m0], dtype=float)))
+    return O.ORDERINGS[int(k[0])], float(score[0])
+
+
+def test_recipes_declare_whether_their_plans_are_shared_by_key(monkeypatch):
+    """Which recipes share a plan among the states of one key is the recipe's declared
+    property: not Hairer-Vilmart's preprocessed DMV (its modified moments vary with the
+    state continuously), nor a composition of it, nor a recipe that does not say; a new
+    state of those is planned afresh."""
+    assert P.DMVFlow(2).keyed_by_state and not P.DMVFlow(4).keyed_by_state
+    assert not P.Composition(P.DMVFlow(4), (1.0,)).keyed_by_state
+    assert P.Composition(P.BestSplitting(), (1.0,)).keyed_by_state
+    assert not P.Recipe.keyed_by_state
+    sc, m = _scene("free"), _methods.get("dmv4")
+    calls = _counting_compiles(monkeypatch)
+    a, b = m.plan(sc, _NEIGHBOURS[0], 0.01), m.plan(sc, _NEIGHBOURS[1], 0.01)
+    assert len(calls) == 2
+    assert a.info["modified_moments"] != b.info["modified_moments"]

@@ -74,6 +74,31 @@ def test_energy_error_constant_is_the_exact_range_on_the_orbit(moments):
             1e-6 * np.ptp(dense) + 1e-15)
 
 
+@pytest.mark.parametrize("family", [_ordering.axis_pieces, _ordering.sr2_pieces])
+def test_one_body_ordering_choice_is_the_ensembles_bit_for_bit(family):
+    """A body alone (the Python-number route of one orbit) gets the ordering and the
+    energy-error constant, to the bit, that the same body gets in an ensemble (the numpy
+    route of many orbits): asymmetric, symmetric and spherical bodies, momenta with zero
+    components, along an axis, zero, and of magnitudes from 1e-60 to 1e60."""
+    rng = np.random.default_rng(7)
+    n = 600
+    moments = 10.0 ** rng.uniform(-2.0, 2.0, (n, 3))
+    moments[0::7, 1] = moments[0::7, 0]  # symmetric about axis 2
+    moments[1::7, 2] = moments[1::7, 0]
+    moments[2::7] = moments[2::7, :1]  # spheres
+    moments[3::7] = np.round(rng.uniform(1.0, 4.0, (len(moments[3::7]), 3)), 1)
+    m0 = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-60.0, 60.0, (n, 1))
+    m0[4::7, rng.integers(3)] = 0.0
+    m0[5::7, :2] = 0.0  # along axis 2
+    m0[6::21] = 0.0
+    m0[10::11] = np.round(rng.normal(size=(len(m0[10::11]), 3)), 1)
+    order, score = _ordering.best_orderings(family, moments, m0)
+    for i in range(n):
+        o1, s1 = _ordering.best_orderings(family, moments[i:i + 1], m0[i:i + 1])
+        assert o1[0] == order[i], i
+        assert s1[0].tobytes() == score[i].tobytes(), (i, s1[0], score[i])
+
+
 def test_energy_error_matches_modified_hamiltonian_prediction(hlw):
     """max |dT| over a run ~ h^2 * (range of H3 on the orbit) for every ordering."""
     scene, L0 = hlw
