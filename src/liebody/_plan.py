@@ -212,10 +212,10 @@ class Bodies:
 
 def combine(*codes) -> np.ndarray:
     """One integer key per body from small non-negative integer codes (each < 16)."""
-    if all(np.shape(c) in ((), (1,)) for c in codes) and any(np.ndim(c) for c in codes):
+    if all(c.__class__ is np.ndarray and c.shape == (1,) for c in codes):
         key = 0  # one body: the same sum in Python integers
         for c in codes:
-            key = key * 16 + int(c[0] if np.ndim(c) else c)
+            key = key * 16 + int(c[0])
         return np.array([key], dtype=np.int64)
     key = np.zeros(np.broadcast_shapes(*(np.shape(c) for c in codes)), dtype=np.int64)
     for c in codes:
@@ -552,6 +552,17 @@ _DRIFT_SYMMETRIC, _DRIFT_EXACT, _DRIFT_AXES = 0, 1, 2
 
 def drift_keys(b: Bodies, ordering=None) -> np.ndarray:
     """Per body, the drift a splitting uses between kicks: see :func:`drift_stages`."""
+    if len(b) == 1:  # one body: the same choice in Python numbers
+        sym1, exact = int(b.symmetry[0]), bool(b.exact_drift[0])
+        if sym1 != ASYMMETRIC and (b.free_flow != "axes" or sym1 == SPHERICAL):
+            choice = _DRIFT_SYMMETRIC
+        else:
+            choice = _DRIFT_EXACT if exact else _DRIFT_AXES
+        order = 0
+        if choice == _DRIFT_AXES:
+            order = (int(b.orderings(_ordering.axis_pieces)[0][0]) if ordering is None
+                     else _ordering.ORDERINGS.index(tuple(ordering)))
+        return np.array([(choice * 16 + sym1 + 1) * 16 + order], dtype=np.int64)
     sym = b.symmetry
     flow = b.free_flow
     use_sym = (sym != ASYMMETRIC) & ((flow != "axes") | (sym == SPHERICAL))
@@ -792,6 +803,11 @@ class BestSplitting(FreeFlowRecipe):
     def free_keys(self, b, h):
         axis_order, s_axis = b.orderings(_ordering.axis_pieces)
         sr2_order, s_sr2 = b.orderings(_ordering.sr2_pieces)
+        if len(b) == 1:  # one body: the same key in Python numbers
+            use = bool(s_sr2[0] <= s_axis[0]) and not b.has_rotor
+            order = int((sr2_order if use else axis_order)[0])
+            return np.array([(int(use) * 16 + int(b.symmetry[0]) + 1) * 16 + order],
+                            dtype=np.int64)
         use_sr2 = (s_sr2 <= s_axis) & (not b.has_rotor)  # (a gyrostat: the axis splitting)
         return combine(use_sr2, b.symmetry + 1, np.where(use_sr2, sr2_order, axis_order))
 
@@ -811,6 +827,12 @@ class BestSplitting(FreeFlowRecipe):
 
     def drift_keys(self, b, h):
         keys = drift_keys(b)
+        if len(b) == 1:  # one body: the same choice in Python numbers
+            if (b.free_flow != "auto" or b.has_rotor or int(b.symmetry[0]) != ASYMMETRIC
+                    or bool(b.exact_drift[0])):
+                return keys
+            free = int(self.free_keys(b, h)[0])
+            return np.array([_DRIFT_SR2_KEYS + free]) if free >> 8 == 1 else keys
         asym = b.symmetry == ASYMMETRIC
         if b.free_flow != "auto" or b.has_rotor or not asym.any():
             return keys  # (a symmetric body's drift reads no orbit: its plan is shared)
