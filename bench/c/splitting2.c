@@ -9,22 +9,50 @@
  * Trajectory.info["axis_ordering"]), so both compute the same thing; step_cost checks
  * that they agree (bit for bit where the compiler keeps the order of operations).
  *
- * Built by step_cost with the system's `cc -O3 -shared -fPIC ... -lm` in a temporary
+ * Built by step_cost with the system's `cc -O3 -march=native -ffp-contract=off -shared
+ * -fPIC ... -lm` (hardware fma, no other contraction: liebody's arithmetic) in a temporary
  * folder and called through ctypes:
  *   splitting2(state[7] = (q, m) in/out, order[3], moments[3], h, n steps).
  */
 #include <math.h>
 
-/* exact flow of T_k = m_k^2/(2 I_k) for time tau: m <- R_k(theta)^T m, q <- q (c, s e_k) */
+/* fdlibm's __kernel_sin / __kernel_cos coefficients (liebody._kernels.trig) */
+static const double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
+    S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
+    S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
+static const double C1 = 4.16666666666666019037e-02, C2 = -1.38888888888741095749e-03,
+    C3 = 2.48015872894767294178e-05, C4 = -2.75573143513906633035e-07,
+    C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
+
+/* exact flow of T_k = m_k^2/(2 I_k) for time tau: m <- R_k(theta)^T m, q <- q (c, s e_k).
+ * A small turn (half^2 < 0.01) in increment form, x + ((cos - 1) x + sin y), with sin and
+ * cos - 1 from the polynomials (as liebody's flows.axis_flow); a larger one plainly. */
 static inline void axis_flow(double *q, double *m, int k, double rate, double tau) {
     double half = 0.5 * tau * rate * m[k];
-    double s2 = sin(half), c2 = cos(half);
-    double c = 1.0 - 2.0 * s2 * s2, s = 2.0 * s2 * c2;
     int i = (k + 1) % 3, j = (k + 2) % 3;
     double mi = m[i], mj = m[j];
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    if (half * half < 0.01) {
+        double z2 = half * half;
+        double sp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, S6, S5), S4), S3), S2), S1);
+        double cp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, C6, C5), C4), C3), C2), C1);
+        double s2 = fma(half, z2 * sp, half);
+        double cm2 = z2 * fma(z2, cp, -0.5);
+        double c2 = 1.0 + cm2;
+        double cm = -2.0 * s2 * s2, s = 2.0 * s2 * c2;
+        m[i] = mi + (cm * mi + s * mj);
+        m[j] = mj + (cm * mj - s * mi);
+        double vx = k == 0 ? s2 : 0.0, vy = k == 1 ? s2 : 0.0, vz = k == 2 ? s2 : 0.0;
+        q[0] = w + (cm2 * w - x * vx - y * vy - z * vz);
+        q[1] = x + (cm2 * x + w * vx + y * vz - z * vy);
+        q[2] = y + (cm2 * y + w * vy + z * vx - x * vz);
+        q[3] = z + (cm2 * z + w * vz + x * vy - y * vx);
+        return;
+    }
+    double s2 = sin(half), c2 = cos(half);
+    double c = 1.0 - 2.0 * s2 * s2, s = 2.0 * s2 * c2;
     m[i] = c * mi + s * mj;
     m[j] = c * mj - s * mi;
-    double w = q[0], x = q[1], y = q[2], z = q[3];
     if (k == 0) {
         q[0] = c2 * w - s2 * x; q[1] = c2 * x + s2 * w;
         q[2] = c2 * y + s2 * z; q[3] = c2 * z - s2 * y;

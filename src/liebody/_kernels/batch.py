@@ -260,61 +260,41 @@ def simd_supports(plan, torque_code) -> bool:
 
 
 # ------------------------------------------------------------------ rotation kernels
-def _axis_kernel(axis: int, recurring: bool, general: bool):
-    """The loop over a block of the exact flow of ``rate m_k^2 / 2`` about axis ``k``.
-
-    Plain form (:func:`~liebody._kernels.flows.axis_flow`) or increment form
-    (:func:`~liebody._kernels.flows.axis_flow_recurring`); ``general``: with range
-    reduction. The rows are compile-time offsets: ``k`` and the two axes after it in
-    cyclic order (the formulas of ``qaxis_rotation`` for every axis).
+def _axis_kernel(axis: int, general: bool):
+    """The loop over a block of the exact flow of ``rate m_k^2 / 2`` about axis ``k``, in
+    increment form (:func:`~liebody._kernels.flows.axis_flow_recurring`), for every axis
+    rotation, recurring or not: near a steady rotation the plain form's ``cos``, rounded
+    to the grid near 1, recurs and drifted ``|q|`` and ``|m|`` linearly (5.7e-12 per 1e6
+    steps). ``general``: with range reduction. The rows are compile-time offsets: ``k``
+    and the two axes after it in cyclic order (the formulas of ``qaxis_rotation`` for
+    every axis).
     """
     ms = (M10, M20, M30)
     qs = (X0, Y0, Z0)
     OA, OB, OC = ms[axis], ms[(axis + 1) % 3], ms[(axis + 2) % 3]
     OP, OU, OV = qs[axis], qs[(axis + 1) % 3], qs[(axis + 2) % 3]
     trig = sincos if general else sincos_small
-    tag = f"axis{axis}_{'recurring' if recurring else 'plain'}_{'general' if general else 'small'}"
+    tag = f"axis{axis}_recurring_{'general' if general else 'small'}"
 
-    if recurring:
-        @jit(tag=tag)
-        def kernel(buf, par, j, nb, tau):
-            ht = 0.5 * tau
-            for i in range(nb):
-                s2, c2, cm2 = trig(ht * par[j, 0, i] * buf[OA + i])
-                cm = -2.0 * s2 * s2  # cos(2 half) - 1
-                s = 2.0 * s2 * c2
-                mb = buf[OB + i]
-                mc = buf[OC + i]
-                buf[OB + i] = mb + fma(cm, mb, s * mc)
-                buf[OC + i] = mc + fma(cm, mc, -(s * mb))
-                w = buf[W0 + i]
-                p = buf[OP + i]
-                u = buf[OU + i]
-                v = buf[OV + i]
-                buf[W0 + i] = w + fma(cm2, w, -(s2 * p))
-                buf[OP + i] = p + fma(cm2, p, s2 * w)
-                buf[OU + i] = u + fma(cm2, u, s2 * v)
-                buf[OV + i] = v + fma(cm2, v, -(s2 * u))
-    else:
-        @jit(tag=tag)
-        def kernel(buf, par, j, nb, tau):
-            ht = 0.5 * tau
-            for i in range(nb):
-                s2, c2, _ = trig(ht * par[j, 0, i] * buf[OA + i])
-                c = fma(-2.0 * s2, s2, 1.0)
-                s = 2.0 * s2 * c2
-                mb = buf[OB + i]
-                mc = buf[OC + i]
-                buf[OB + i] = fma(c, mb, s * mc)
-                buf[OC + i] = fma(c, mc, -(s * mb))
-                w = buf[W0 + i]
-                p = buf[OP + i]
-                u = buf[OU + i]
-                v = buf[OV + i]
-                buf[W0 + i] = fma(c2, w, -(s2 * p))
-                buf[OP + i] = fma(c2, p, s2 * w)
-                buf[OU + i] = fma(c2, u, s2 * v)
-                buf[OV + i] = fma(c2, v, -(s2 * u))
+    @jit(tag=tag)
+    def kernel(buf, par, j, nb, tau):
+        ht = 0.5 * tau
+        for i in range(nb):
+            s2, c2, cm2 = trig(ht * par[j, 0, i] * buf[OA + i])
+            cm = -2.0 * s2 * s2  # cos(2 half) - 1
+            s = 2.0 * s2 * c2
+            mb = buf[OB + i]
+            mc = buf[OC + i]
+            buf[OB + i] = mb + fma(cm, mb, s * mc)
+            buf[OC + i] = mc + fma(cm, mc, -(s * mb))
+            w = buf[W0 + i]
+            p = buf[OP + i]
+            u = buf[OU + i]
+            v = buf[OV + i]
+            buf[W0 + i] = w + fma(cm2, w, -(s2 * p))
+            buf[OP + i] = p + fma(cm2, p, s2 * w)
+            buf[OU + i] = u + fma(cm2, u, s2 * v)
+            buf[OV + i] = v + fma(cm2, v, -(s2 * u))
 
     return kernel
 
@@ -361,14 +341,10 @@ def _sphere_kernel(general: bool):
     return kernel
 
 
-_AXIS_FAST = tuple(_axis_kernel(a, False, False) for a in range(3))
-_AXIS_GENERAL = tuple(_axis_kernel(a, False, True) for a in range(3))
-_RECURRING_FAST = tuple(_axis_kernel(a, True, False) for a in range(3))
-_RECURRING_GENERAL = tuple(_axis_kernel(a, True, True) for a in range(3))
+_AXIS_FAST = tuple(_axis_kernel(a, False) for a in range(3))
+_AXIS_GENERAL = tuple(_axis_kernel(a, True) for a in range(3))
 _AX0F, _AX1F, _AX2F = _AXIS_FAST
 _AX0G, _AX1G, _AX2G = _AXIS_GENERAL
-_RC0F, _RC1F, _RC2F = _RECURRING_FAST
-_RC0G, _RC1G, _RC2G = _RECURRING_GENERAL
 _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
 
@@ -657,7 +633,7 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
         _kick_block(buf, par, j, nb, tau)
         return
-    if family == F_AXES or kind == AXIS:
+    if family == F_AXES or kind == AXIS or kind == AXIS_RECURRING:
         if fast & FAST:
             if axis == 0:
                 _AX0F(buf, par, j, nb, tau)
@@ -671,20 +647,6 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
             _AX1G(buf, par, j, nb, tau)
         else:
             _AX2G(buf, par, j, nb, tau)
-    elif kind == AXIS_RECURRING:
-        if fast & FAST:
-            if axis == 0:
-                _RC0F(buf, par, j, nb, tau)
-            elif axis == 1:
-                _RC1F(buf, par, j, nb, tau)
-            else:
-                _RC2F(buf, par, j, nb, tau)
-        elif axis == 0:
-            _RC0G(buf, par, j, nb, tau)
-        elif axis == 1:
-            _RC1G(buf, par, j, nb, tau)
-        else:
-            _RC2G(buf, par, j, nb, tau)
     elif fast & FAST:
         _SPHERE_FAST(buf, par, j, nb, tau)
     else:
