@@ -461,7 +461,7 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         coefs=np.array([s.coef for s in merged], dtype=np.float64),
         clock=np.array([s.clock for s in merged], dtype=np.float64),
         params=np.ascontiguousarray(params),
-        merge_ends=len(merged) > 1 and _mergeable(merged[0], merged[-1], n),
+        merge_ends=len(merged) > 1 and _mergeable(merged[-1], merged[0], n),
         family=S.family_of(kinds),
         info=dict(info or {}),
         model=_NO_MODEL if model is None else model,
@@ -471,8 +471,13 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
 
 
 def _mergeable(a: Stage, b: Stage, n: int) -> bool:
-    """Flows of the same Hamiltonian for every body: same mergeable kind, axis, parameters."""
+    """Flows of the same Hamiltonian for every body: same mergeable kind, axis, parameters;
+    ``a`` runs first. A kick reads the clock at its start, so two kicks merge only when
+    the first leaves the clock where it was (else the merged one would read the second
+    at the first's time)."""
     if not (S.KINDS[a.kind].mergeable and a.kind == b.kind and a.axis == b.axis):
+        return False
+    if a.kind == S.KICK and a.clock != 0.0:
         return False
     if (a.rotor_moves or b.rotor_moves) and a.coef * b.clock != b.coef * a.clock:
         return False  # l(t) read at different fractions of the two stages' clocks
