@@ -503,11 +503,12 @@ def _saba(n: int) -> Method:
     return Method(
         f"saba{n}", P.FlowSequence(saba_flows(n)), 2, "splitting", True, True, True, True,
         Handles(frozenset({"time", "orientation"})),
-        f"{n} exact free flows and {n} kicks (the end flows merged between steps)",
+        f"{n} exact free flows and {n} kicks (the end flows merged between unsaved steps)",
         description=f"Laskar & Robutel's SABA_{n} (2001): the exact free flow between "
                     f"{n} kicks at the Gauss-Legendre nodes of the step; error "
                     f"O(eps h^{2 * n} + eps^2 h^2) for a torque of relative strength eps, "
-                    f"exact on a free body. For fast rotators under weak torques.",
+                    f"exact on a free body (the drift is the exact flow whatever the "
+                    f"scene's free_flow). For fast rotators under weak torques.",
         weak_order=2 * n)
 
 
@@ -922,7 +923,11 @@ def check_supports(method: Method, scene) -> None:
         done[id(method)] = method
         return
     able = [m.name for m in _REGISTRY.values() if m.supports(scene)]
+    hint = ""
+    if "momentum" in caps.torque and caps.torque - {"momentum"} <= method.handles.torque:
+        hint = (" (a torque that does not read L is declared with orientation_only=True, "
+                "which these methods take)")
     raise ValueError(
         f"method {method.name!r} cannot integrate this {type(scene).__name__}: the scene has "
-        f"{caps.describe()}, and {method.name} handles {method.handles.describe()} only; "
-        f"methods that can: {', '.join(able)}")
+        f"{caps.describe()}, and {method.name} handles {method.handles.describe()} only"
+        f"{hint}; methods that can: {', '.join(able)}")
