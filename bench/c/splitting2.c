@@ -25,44 +25,34 @@ static const double C1 = 4.16666666666666019037e-02, C2 = -1.3888888888874109574
     C5 = 2.08757232129817482790e-09, C6 = -1.13596475577881948265e-11;
 
 /* exact flow of T_k = m_k^2/(2 I_k) for time tau: m <- R_k(theta)^T m, q <- q (c, s e_k).
- * A small turn (half^2 < 0.01) in increment form, x + ((cos - 1) x + sin y), with sin and
- * cos - 1 from the polynomials (as liebody's flows.axis_flow); a larger one plainly. */
+ * In increment form, x + ((cos - 1) x + sin y), as liebody's flows.axis_flow: a small
+ * turn (half^2 < 0.01) with sin and cos - 1 from the polynomials, a larger one from libm. */
 static inline void axis_flow(double *q, double *m, int k, double rate, double tau) {
     double half = 0.5 * tau * rate * m[k];
     int i = (k + 1) % 3, j = (k + 2) % 3;
     double mi = m[i], mj = m[j];
     double w = q[0], x = q[1], y = q[2], z = q[3];
+    double s2, c2, cm2;
     if (half * half < 0.01) {
         double z2 = half * half;
         double sp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, S6, S5), S4), S3), S2), S1);
         double cp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, C6, C5), C4), C3), C2), C1);
-        double s2 = fma(half, z2 * sp, half);
-        double cm2 = z2 * fma(z2, cp, -0.5);
-        double c2 = 1.0 + cm2;
-        double cm = -2.0 * s2 * s2, s = 2.0 * s2 * c2;
-        m[i] = mi + (cm * mi + s * mj);
-        m[j] = mj + (cm * mj - s * mi);
-        double vx = k == 0 ? s2 : 0.0, vy = k == 1 ? s2 : 0.0, vz = k == 2 ? s2 : 0.0;
-        q[0] = w + (cm2 * w - x * vx - y * vy - z * vz);
-        q[1] = x + (cm2 * x + w * vx + y * vz - z * vy);
-        q[2] = y + (cm2 * y + w * vy + z * vx - x * vz);
-        q[3] = z + (cm2 * z + w * vz + x * vy - y * vx);
-        return;
-    }
-    double s2 = sin(half), c2 = cos(half);
-    double c = 1.0 - 2.0 * s2 * s2, s = 2.0 * s2 * c2;
-    m[i] = c * mi + s * mj;
-    m[j] = c * mj - s * mi;
-    if (k == 0) {
-        q[0] = c2 * w - s2 * x; q[1] = c2 * x + s2 * w;
-        q[2] = c2 * y + s2 * z; q[3] = c2 * z - s2 * y;
-    } else if (k == 1) {
-        q[0] = c2 * w - s2 * y; q[1] = c2 * x - s2 * z;
-        q[2] = c2 * y + s2 * w; q[3] = c2 * z + s2 * x;
+        s2 = fma(half, z2 * sp, half);
+        cm2 = z2 * fma(z2, cp, -0.5);
+        c2 = 1.0 + cm2;
     } else {
-        q[0] = c2 * w - s2 * z; q[1] = c2 * x + s2 * y;
-        q[2] = c2 * y - s2 * x; q[3] = c2 * z + s2 * w;
+        s2 = sin(half);
+        c2 = cos(half);
+        cm2 = c2 - 1.0;
     }
+    double cm = -2.0 * s2 * s2, s = 2.0 * s2 * c2;
+    m[i] = mi + (cm * mi + s * mj);
+    m[j] = mj + (cm * mj - s * mi);
+    double vx = k == 0 ? s2 : 0.0, vy = k == 1 ? s2 : 0.0, vz = k == 2 ? s2 : 0.0;
+    q[0] = w + (cm2 * w - x * vx - y * vy - z * vz);
+    q[1] = x + (cm2 * x + w * vx + y * vz - z * vy);
+    q[2] = y + (cm2 * y + w * vy + z * vx - x * vz);
+    q[3] = z + (cm2 * z + w * vz + x * vy - y * vx);
 }
 
 /* n steps of a-b-c-b-a with the trailing a(h/2) merged into the next leading a(h/2) */

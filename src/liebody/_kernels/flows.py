@@ -24,7 +24,6 @@ from liebody._kernels.quat import (
     _two_sum,
     component,
     increment_defect,
-    qaxis_rotation,
     qexp,
     qexp_increment,
     qmul,
@@ -91,13 +90,18 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
 
 @jit(inline="always")
 def _rigid_turn(w, x, y, z, m1, m2, m3, axis, half):
-    """:func:`axis_flow`'s turn by ``2 half``: increment form for a small one."""
-    if half * half < COMPENSATED_TURN:
-        z2 = half * half
+    """:func:`axis_flow`'s turn by ``2 half``, in increment form (a large one from libm's
+    sin and cos)."""
+    z2 = half * half
+    if z2 < COMPENSATED_TURN:
         s2 = fma(half, z2 * _sin_poly(z2), half)
         cm2 = z2 * fma(z2, _cos_poly(z2), -0.5)
-        return _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, 1.0 + cm2, cm2)
-    return _axis_turn(w, x, y, z, m1, m2, m3, axis, half)
+        c2 = 1.0 + cm2
+    else:
+        s2 = math.sin(half)
+        c2 = math.cos(half)
+        cm2 = c2 - 1.0
+    return _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, c2, cm2)
 
 
 @jit
@@ -232,23 +236,6 @@ def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
         py, pz = _dot2(c2, y, -s2, x), _dot2(c2, z, s2, w)
     return (pw[0] + (pw[1] + k * pw[0]), px[0] + (px[1] + k * px[0]),
             py[0] + (py[1] + k * py[0]), pz[0] + (pz[1] + k * pz[0]), m1, m2, m3)
-
-
-@jit(inline="always")
-def _axis_turn(w, x, y, z, m1, m2, m3, axis, half):
-    """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis``."""
-    s2 = math.sin(half)
-    c2 = math.cos(half)
-    c = 1.0 - 2.0 * s2 * s2
-    s = 2.0 * s2 * c2
-    if axis == 0:
-        m2, m3 = c * m2 + s * m3, c * m3 - s * m2
-    elif axis == 1:
-        m3, m1 = c * m3 + s * m1, c * m1 - s * m3
-    else:
-        m1, m2 = c * m1 + s * m2, c * m2 - s * m1
-    w, x, y, z = qaxis_rotation(w, x, y, z, axis, s2, c2)
-    return w, x, y, z, m1, m2, m3
 
 
 @jit
