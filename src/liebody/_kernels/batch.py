@@ -175,6 +175,7 @@ from liebody._kernels.trig import (
     fma,
     sincos,
     sincos_small,
+    sincos_small_raw,
 )
 from liebody._models import dispatch
 
@@ -260,21 +261,24 @@ def simd_supports(plan, torque_code) -> bool:
 
 
 # ------------------------------------------------------------------ rotation kernels
-def _axis_kernel(axis: int, general: bool):
+def _axis_kernel(axis: int, general: bool, recurring: bool):
     """The loop over a block of the exact flow of ``rate m_k^2 / 2`` about axis ``k``, in
     increment form (:func:`~liebody._kernels.flows.axis_flow_recurring`), for every axis
     rotation, recurring or not: near a steady rotation the plain form's ``cos``, rounded
     to the grid near 1, recurs and drifted ``|q|`` and ``|m|`` linearly (5.7e-12 per 1e6
-    steps). ``general``: with range reduction. The rows are compile-time offsets: ``k``
-    and the two axes after it in cyclic order (the formulas of ``qaxis_rotation`` for
-    every axis).
+    steps). ``general``: with range reduction. ``recurring``: the angle recurs exactly
+    (``m_k`` constant), so the polynomial pair is normalised (its norm error, ``eps
+    sin^2``, would recur too); otherwise the cheaper pair as it comes. The rows are
+    compile-time offsets: ``k`` and the two axes after it in cyclic order (the formulas
+    of ``qaxis_rotation`` for every axis).
     """
     ms = (M10, M20, M30)
     qs = (X0, Y0, Z0)
     OA, OB, OC = ms[axis], ms[(axis + 1) % 3], ms[(axis + 2) % 3]
     OP, OU, OV = qs[axis], qs[(axis + 1) % 3], qs[(axis + 2) % 3]
-    trig = sincos if general else sincos_small
-    tag = f"axis{axis}_recurring_{'general' if general else 'small'}"
+    trig = sincos if general else sincos_small if recurring else sincos_small_raw
+    tag = (f"axis{axis}_{'recurring' if recurring else 'increment'}_"
+           f"{'general' if general else 'small'}")
 
     @jit(tag=tag)
     def kernel(buf, par, j, nb, tau):
@@ -341,10 +345,12 @@ def _sphere_kernel(general: bool):
     return kernel
 
 
-_AXIS_FAST = tuple(_axis_kernel(a, False) for a in range(3))
-_AXIS_GENERAL = tuple(_axis_kernel(a, True) for a in range(3))
+_AXIS_FAST = tuple(_axis_kernel(a, False, False) for a in range(3))
+_AXIS_GENERAL = tuple(_axis_kernel(a, True, False) for a in range(3))
+_RECURRING_FAST = tuple(_axis_kernel(a, False, True) for a in range(3))
 _AX0F, _AX1F, _AX2F = _AXIS_FAST
 _AX0G, _AX1G, _AX2G = _AXIS_GENERAL
+_RC0F, _RC1F, _RC2F = _RECURRING_FAST
 _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
 
@@ -633,7 +639,14 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
         _kick_block(buf, par, j, nb, tau)
         return
-    if family == F_AXES or kind == AXIS or kind == AXIS_RECURRING:
+    if kind == AXIS_RECURRING and fast & FAST:
+        if axis == 0:
+            _RC0F(buf, par, j, nb, tau)
+        elif axis == 1:
+            _RC1F(buf, par, j, nb, tau)
+        else:
+            _RC2F(buf, par, j, nb, tau)
+    elif family == F_AXES or kind == AXIS or kind == AXIS_RECURRING:
         if fast & FAST:
             if axis == 0:
                 _AX0F(buf, par, j, nb, tau)
