@@ -190,9 +190,9 @@ class Method:
         recipe read the initial state to build it (an axis ordering chosen for the
         orbit, Hairer-Vilmart's modified moments): repeated calls with one scene skip
         the set-up, and so do calls from new initial states for methods whose plan does
-        not depend on them. A recipe :attr:`~liebody._plan.Recipe.keyed_by_state` (the
-        splittings: its plan depends on the state only through the orbit's choices, its
-        key) shares one plan among the states of one key, each with its own ``info``:
+        not depend on them. A recipe whose ``keyed_by_state`` is true (``liebody._plan``;
+        the splittings: its plan depends on the state only through the orbit's choices,
+        its key) shares one plan among the states of one key, each with its own ``info``:
         a new initial state then costs its choices only. A cached plan is shared: never
         write to its arrays (copy ``params`` first, as the drivers' callers do for the
         controls).
