@@ -538,10 +538,8 @@ def test_the_block_loops_compile_to_packed_instructions():
           np.zeros(1))
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
-    for fn, args in ((B._AXIS_FAST[0], (buf, par, 0, 3, 0.1)),
-                     (B._AXIS_GENERAL[2], (buf, par, 0, 3, 0.1)),
-                     (B._RECURRING_FAST[1], (buf, par, 0, 3, 0.1)),
-                     (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
+    for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
+                     (B._AX1F, (buf, par, 0, 3, 0.1)), (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
                      (B._SPHERE_GENERAL, (buf, par, 0, 3, 0.1)),
                      (B._kick_block, (buf, par, 0, 3, 0.1)), (B._dmv_block, (buf, p, 3, 0.1)),
                      (B._diagnose_block, (buf, 3, mc, 0.0)),

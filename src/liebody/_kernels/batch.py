@@ -345,28 +345,12 @@ def _sphere_kernel(general: bool):
     return kernel
 
 
-def _by_axis(kernels: tuple, name: str):
-    """One call that runs the kernel of ``kernels`` (one per axis) for a run-time axis."""
-    k0, k1, k2 = kernels
-
-    @jit(inline="always", tag=name)
-    def call(axis, buf, par, j, nb, tau):
-        if axis == 0:
-            k0(buf, par, j, nb, tau)
-        elif axis == 1:
-            k1(buf, par, j, nb, tau)
-        else:
-            k2(buf, par, j, nb, tau)
-
-    return call
-
-
 _AXIS_FAST = tuple(_axis_kernel(a, False, False) for a in range(3))
 _AXIS_GENERAL = tuple(_axis_kernel(a, True, False) for a in range(3))
 _RECURRING_FAST = tuple(_axis_kernel(a, False, True) for a in range(3))
-_AXIS_FAST_CALL = _by_axis(_AXIS_FAST, "axis_fast")
-_AXIS_GENERAL_CALL = _by_axis(_AXIS_GENERAL, "axis_general")
-_RECURRING_FAST_CALL = _by_axis(_RECURRING_FAST, "recurring_fast")
+_AX0F, _AX1F, _AX2F = _AXIS_FAST
+_AX0G, _AX1G, _AX2G = _AXIS_GENERAL
+_RC0F, _RC1F, _RC2F = _RECURRING_FAST
 _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
 
@@ -656,12 +640,26 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
         _kick_block(buf, par, j, nb, tau)
         return
     if kind == AXIS_RECURRING and fast & FAST:
-        _RECURRING_FAST_CALL(axis, buf, par, j, nb, tau)
+        if axis == 0:
+            _RC0F(buf, par, j, nb, tau)
+        elif axis == 1:
+            _RC1F(buf, par, j, nb, tau)
+        else:
+            _RC2F(buf, par, j, nb, tau)
     elif family == F_AXES or kind == AXIS or kind == AXIS_RECURRING:
         if fast & FAST:
-            _AXIS_FAST_CALL(axis, buf, par, j, nb, tau)
+            if axis == 0:
+                _AX0F(buf, par, j, nb, tau)
+            elif axis == 1:
+                _AX1F(buf, par, j, nb, tau)
+            else:
+                _AX2F(buf, par, j, nb, tau)
+        elif axis == 0:
+            _AX0G(buf, par, j, nb, tau)
+        elif axis == 1:
+            _AX1G(buf, par, j, nb, tau)
         else:
-            _AXIS_GENERAL_CALL(axis, buf, par, j, nb, tau)
+            _AX2G(buf, par, j, nb, tau)
     elif fast & FAST:
         _SPHERE_FAST(buf, par, j, nb, tau)
     else:
