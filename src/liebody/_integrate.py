@@ -796,7 +796,7 @@ def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) 
             return traj
     run = _Run(scene, method, q0, m0, dt, n_steps, save_every, t, model, False, False, u, t0,
                (q_out, m_out))
-    run.info = plan.info
+    run.info = dict(plan.info)
     if status is None:
         run._interrupted(1, 0)
     if status == S.STATUS_OK:
@@ -831,7 +831,7 @@ def _completed(scene, method, dt: float, info: dict, t: np.ndarray, t0: float,
     q_out.setflags(write=False)  # ours: no view
     m_out.setflags(write=False)
     traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene, method, dt,
-                                info, diagnostics)
+                                info.copy(), diagnostics)  # (the plan's info is cached)
     return warn_invariants(traj, stacklevel, (q0l, end[:4], m0l, L1))
 
 
@@ -917,7 +917,7 @@ class _Run:
     def stepped(self) -> Trajectory:
         """Run the method's stage table through the driver of its family, in slices."""
         plan = self.method.plan(self.scene, self.m0, self.dt)
-        self.info = plan.info
+        self.info = dict(plan.info)  # the trajectory's own (the plan's is cached and shared)
         runner = (_DRIVERS or _drivers())[self.diag][plan.family]
         params, q0, m0, state, ctl = _start(plan, self.q0, self.m0, self.u, self.save_every)
         merge = plan.merge_ends and not self.diag

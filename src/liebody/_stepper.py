@@ -251,7 +251,7 @@ class Stepper:
             params = plan.params[0].copy()
             if self._u is not None:
                 write_controls(params, self._u)
-            self.info = plan.info
+            self.info = dict(plan.info)  # its own (the plan is cached and shared)
             self._pu = params[:, S.P_U0:S.P_U0 + max(1, self._scene.controls)]
             self._ctl = np.zeros(2, dtype=np.int64)
             self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,

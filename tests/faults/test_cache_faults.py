@@ -162,3 +162,19 @@ def test_a_status_no_driver_knows_names_the_cache_as_a_cause(monkeypatch):
         liebody.integrate(scene, L0=[1.0, 0.2, 0.1], dt=0.1, steps=3, method="splitting2")
     text = str(info.value)
     assert "cache" in text and "NUMBA_CACHE_DIR" in text and "delete" in text, text
+
+
+@pytest.mark.parametrize("method", ["splitting2", "splitting4", "saba2", "rk4"])
+def test_writing_to_a_trajectorys_info_leaves_the_cached_plan_alone(method):
+    """Plans are cached and shared by the runs of one scene (and, for the splittings, by
+    the states of one key): a trajectory's ``info`` and a Stepper's are their own copies,
+    so a caller who writes to them changes no later run's ``info``."""
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    first = liebody.integrate(scene, L0=[1.0, 0.2, 0.1], dt=0.01, steps=3, method=method)
+    expected = dict(first.info)
+    first.info["written"] = True
+    liebody.Stepper(scene, L0=[1.0, 0.2, 0.1], dt=0.01, method=method).info["also"] = True
+    for steps in (3, 300):  # the short path and the run object
+        again = liebody.integrate(scene, L0=[1.0, 0.2, 0.1], dt=0.01, steps=steps,
+                                  method=method, save_every=steps)
+        assert again.info == expected
