@@ -302,3 +302,33 @@ def test_recipes_declare_whether_their_plans_are_shared_by_key(monkeypatch):
     a, b = m.plan(sc, _NEIGHBOURS[0], 0.01), m.plan(sc, _NEIGHBOURS[1], 0.01)
     assert len(calls) == 2
     assert a.info["modified_moments"] != b.info["modified_moments"]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_saba_nodes_and_weights_are_the_gauss_legendre_rule(n):
+    """The closed-form nodes and weights (Abramowitz & Stegun, table 25.4) against numpy's
+    Golub-Welsch ``leggauss`` and against exactness for polynomials of degree ``2n - 1``
+    on ``[0, 1]``; SABA_n's sub-flows are palindromic, each part runs one step, and the
+    kicks sit at the nodes of the step with the weights (the clock before each kick)."""
+    nodes, weights = _methods.gauss_legendre(n)
+    x, w = np.polynomial.legendre.leggauss(n)
+    np.testing.assert_allclose(nodes, 0.5 * (1.0 + x), rtol=0, atol=4e-16)
+    np.testing.assert_allclose(weights, 0.5 * w, rtol=0, atol=4e-16)
+    for k in range(2 * n):  # integral of t^k over [0, 1]
+        assert abs(sum(wi * c**k for c, wi in zip(nodes, weights, strict=True))
+                   - 1.0 / (k + 1)) < 1e-15
+    k = 2 * n  # and not beyond: the rule's degree is 2n - 1
+    assert abs(sum(wi * c**k for c, wi in zip(nodes, weights, strict=True))
+               - 1.0 / (k + 1)) > 1e-6
+    recipe = P.FlowSequence(_methods.saba_flows(n))
+    assert recipe.palindromic and recipe.parts() == pytest.approx({"free": 1.0, "kick": 1.0})
+    clock, kicks = 0.0, []
+    for name, frac, tick in recipe.flows:
+        if name == "kick":
+            kicks.append((clock, frac))
+        clock += tick
+    assert abs(clock - 1.0) < 1e-15
+    np.testing.assert_allclose([c for c, _ in kicks], nodes, rtol=0, atol=1e-15)
+    np.testing.assert_allclose([f for _, f in kicks], weights, rtol=0, atol=0)
+    with pytest.raises(ValueError, match="n must be 1 to 4"):
+        _methods.gauss_legendre(5)

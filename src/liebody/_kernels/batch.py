@@ -77,10 +77,13 @@ at most 1 ulp on ``|x| <= pi/4``, 2 ulps on ``|x| <= 100``, 3 ulps up to ``1e9``
 ``(s, c)`` has libm's statistics (mean ``-2.8e-18``, rms ``6.5e-17``; libm
 ``-2.9e-18``, ``6.3e-17``).
 
-The recurring rotations (AXIS_RECURRING, SPHERE) are applied in increment form with
-``cm`` straight from the polynomial (no ``-s^2/(1 + c)`` division), so an angle that
-recurs every step leaves a norm error of order ``eps sin^2`` per step, as on the scalar
-path (``docs/design.md``, "Rounding that does not average out").
+Every rotation (AXIS, AXIS_RECURRING, SPHERE) is applied in increment form with ``cm``
+straight from the polynomial (no ``-s^2/(1 + c)`` division), as on the scalar path
+(``docs/design.md``, "Rounding that does not average out"): near a steady rotation even
+an axis rotation's angle hardly changes from step to step. Where the angle recurs
+exactly (AXIS_RECURRING, SPHERE) the pair is normalised as well, so that its norm error
+does not recur; elsewhere :func:`~liebody._kernels.trig.sincos_small_raw` saves the
+Newton step.
 
 When every half angle of a stage is known to stay below 0.78 over the next steps (the
 free families keep ``|m|``; with gravity kicks ``|m|`` grows at most by

@@ -48,7 +48,7 @@ from liebody._kernels.stages import (
     TORQUE_NONE,
 )
 from liebody._kernels.torque import damping_rate, torque_value
-from liebody._kernels.trig import _cos_poly, _sin_poly, fma, sincos_small
+from liebody._kernels.trig import fma, sincos_small, sincos_small_raw
 
 #: a recurring rotation whose squared half angle is at least this (a turn of 1 rad or more
 #: per step) keeps ``q`` on the unit sphere (``qproject_unit``); below, the increment
@@ -77,12 +77,12 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     sub-flow of the kinetic-energy term ``T_k`` (McLachlan 1993; Reich 1994). Keeps
     ``|m|``, spatial ``L = R(q) m`` exactly and ``|q|`` to round-off.
 
-    A small turn (``|half| < 0.1``) is applied in increment form,
-    ``x + ((cos - 1) x + sin y)``, with the normalised ``(sin, cos, cos - 1)`` of the
-    polynomial :func:`~liebody._kernels.trig.sincos_small` (no libm call): near a steady
-    rotation the same small angle recurs step after step, and the plain form's ``cos``,
-    rounded to the grid near 1, drifted ``|q|`` and ``|m|`` linearly (3.4e-11 per 1e6
-    steps). A larger turn takes one libm sin and cos.
+    Applied in increment form, ``x + ((cos - 1) x + sin y)``: near a steady rotation the
+    same small angle recurs step after step, and the plain form's ``cos``, rounded to the
+    grid near 1, drifted ``|q|`` and ``|m|`` linearly (3.4e-11 per 1e6 steps). A small
+    turn (``|half| < 0.1``) takes ``(sin, cos, cos - 1)`` from the polynomial
+    :func:`~liebody._kernels.trig.sincos_small_raw` (no libm call; its pair's norm error,
+    ``eps sin^2``, is far below round-off), a larger one libm's sin and cos.
     """
     return _rigid_turn(w, x, y, z, m1, m2, m3, axis,
                        0.5 * tau * rate * component(axis, m1, m2, m3))
@@ -92,11 +92,8 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
 def _rigid_turn(w, x, y, z, m1, m2, m3, axis, half):
     """:func:`axis_flow`'s turn by ``2 half``, in increment form (a large one from libm's
     sin and cos)."""
-    z2 = half * half
-    if z2 < COMPENSATED_TURN:
-        s2 = fma(half, z2 * _sin_poly(z2), half)
-        cm2 = z2 * fma(z2, _cos_poly(z2), -0.5)
-        c2 = 1.0 + cm2
+    if half * half < COMPENSATED_TURN:
+        s2, c2, cm2 = sincos_small_raw(half)
     else:
         s2 = math.sin(half)
         c2 = math.cos(half)
