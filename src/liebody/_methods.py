@@ -709,6 +709,33 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
     return _register(method, replace, stacklevel=3)
 
 
+def _merged_flows(flows: tuple) -> tuple:
+    """The sequence ``(flow, fraction, clock)`` as the plan compiler runs it, for judging
+    its symmetry: pieces of zero fraction and zero clock dropped, adjacent pieces of one
+    flow merged (fractions and clocks added; a merge that cancels drops the piece). A
+    kick reads the clock at its start, so it merges with the next kick only when it
+    leaves the clock where it was; a ``T_k`` merges only when the clocks are in
+    proportion to the fractions (one flow on the extended phase space of a moving rotor);
+    ``damp`` (a second-order step, not an exact flow) never merges, nor a piece of zero
+    fraction that advances the clock (kept as written); the first and last pieces are
+    not merged across the step's ends."""
+    out: list[tuple[str, float, float]] = []
+    for name, frac, clock in flows:
+        if frac == 0.0 and clock == 0.0:
+            continue
+        if (out and out[-1][0] == name and name != "damp" and frac != 0.0
+                and out[-1][1] != 0.0):
+            _, f0, c0 = out[-1]
+            if not ((name == "kick" and c0 != 0.0)
+                    or (name in ("T1", "T2", "T3") and f0 * clock != frac * c0)):
+                out.pop()
+                if f0 + frac != 0.0 or c0 + clock != 0.0:
+                    out.append((name, f0 + frac, c0 + clock))
+                continue
+        out.append((name, frac, clock))
+    return tuple(out)
+
+
 def register_splitting(name: str, flows, *, order: int | None = None,
                        description: str = "", replace: bool = False) -> Method:
     """Register a splitting made of exact sub-flows (``FlowSequence``).
@@ -727,11 +754,16 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         ``kick`` and ``damp`` where present; the clocks add up to one step.
     order
         The order to declare; default 2 for a palindromic sequence (a symmetric
-        method), else 1. A higher order is checked as for a composition: the order
-        conditions (the terms of degree 2 to ``order`` of the splitting's
-        Baker-Campbell-Hausdorff logarithm vanish, ``check_splitting``), and a
-        false one is refused; a sequence that is not palindromic cannot declare more
-        than 1. :func:`liebody.testing.observed_order` measures it.
+        method), else 1. Symmetry is judged on the sequence as it runs: pieces of zero
+        fraction and clock dropped and adjacent pieces of one flow merged (so
+        ``("free", 0.3), ("free", 0.2)`` counts as ``("free", 0.5)``; a kick that
+        advances the clock does not merge with the next kick, which reads the later
+        time, and ``damp`` pieces never merge), then the flows, fractions and the
+        kicks' clocks must read the same backwards. A higher order is checked as for a
+        composition: the order conditions (the terms of degree 2 to ``order`` of the
+        splitting's Baker-Campbell-Hausdorff logarithm vanish, ``check_splitting``),
+        and a false one is refused; a sequence that is not palindromic cannot declare
+        more than 1. :func:`liebody.testing.observed_order` measures it.
     description, replace
         As for :func:`register`.
 
@@ -769,7 +801,8 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         raise ValueError(f"flows: the clocks add up to {clock!r} steps; a step must advance "
                          f"the clock by exactly one step (the kicks of a time-dependent "
                          f"torque read it)")
-    sym = recipe.palindromic
+    merged = _merged_flows(recipe.flows)  # symmetry is a property of what runs
+    sym = not merged or P.FlowSequence(merged).palindromic
     if order is None:
         order = 2 if sym else 1
     if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
