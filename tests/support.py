@@ -85,9 +85,8 @@ def drive(plan, h: float, n: int, state: np.ndarray, q_out: np.ndarray, m_out: n
         from liebody._kernels.driver import RUNNERS as runners
     ctl = np.array([1, 0], dtype=np.int64)
     return runners[plan.family](plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params[0],
-                                plan.merge_ends, h, 0.0, 0.0, n, 1, True, state, ctl, q_out,
-                                m_out,
-                                torque_addr, plan.model[0], plan.model_shared,
+                                plan.slots, plan.merge_ends, h, 0.0, 0.0, n, 1, True, state,
+                                ctl, q_out, m_out, torque_addr, plan.model[0], plan.model_shared,
                                 np.zeros(S.DREF_WIDTH), np.zeros(3))
 
 

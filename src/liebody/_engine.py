@@ -50,9 +50,9 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
     plan's stage table with ``params`` (the plan's, or a copy holding controls), the
     clock, the slice, the state and outputs, the user callback, the model's parameter
     row and shared block, the diagnostics' arrays and the model's token."""
-    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, merge_ends, h, t0, step0,
-            n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr, plan.first[1],
-            plan.model_shared, dref, dmax, plan.token)
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, plan.slots, merge_ends, h,
+            t0, step0, n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr,
+            plan.first[1], plan.model_shared, dref, dmax, plan.token)
 
 
 def entry_point(runner, args):
@@ -82,10 +82,10 @@ def batch_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, fina
                ctl, q_out, m_out, saved, done, status, torque_addr, rows, dref, dmax) -> tuple:
     """The argument list of a batch or SIMD driver (``batch_drivers.BATCH_RUNNERS``,
     ``batch.SIMD_RUNNERS``) for the bodies ``rows`` (a slice) of a plan's group;
-    ``params``: the group's stage parameters (``(1, s, P)`` shared, or one row per body
-    of the group)."""
+    ``params``: the group's distinct stage rows (``(1, r, P)`` shared, or per body of the
+    group; ``plan.slots`` maps the stages to them)."""
     return (plan.kinds, plan.axes, plan.coefs, plan.clock, body_rows(params, rows),
-            merge_ends, h, t0, step0,
+            plan.slots, merge_ends, h, t0, step0,
             n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
             torque_addr, plan.model_rows(rows), plan.model_shared, dref, dmax, plan.token)
 
@@ -201,9 +201,9 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
 
 
 def with_controls(params: np.ndarray, u: np.ndarray | None, n: int) -> np.ndarray:
-    """A plan's stage parameters (``(1, s, P)`` shared, or ``(n, s, P)``) with the controls
-    ``u`` (``(k,)``, or ``(n, k)`` one row per body) in the control slots of every stage
-    (the stages that do not call the torque ignore them): a new array, with a row per
+    """A plan's stage parameters (its distinct rows: ``(1, r, P)`` shared, or ``(n, r, P)``)
+    with the controls ``u`` (``(k,)``, or ``(n, k)`` one row per body) in the control slots
+    of every row (the stages that do not call the torque ignore them): a new array, with a row per
     body when ``u`` has one; the plan's own array unchanged without controls."""
     if u is None:
         return params
@@ -214,7 +214,7 @@ def with_controls(params: np.ndarray, u: np.ndarray | None, n: int) -> np.ndarra
 
 
 def write_controls(params: np.ndarray, u: np.ndarray) -> None:
-    """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, s, P)``)
+    """Put the controls ``u`` (``(k,)``, or ``(N, k)`` with ``params`` ``(N, r, P)``)
     in the control slots of every stage's parameters, in place."""
     k = u.shape[-1]
     if u.ndim == 2:

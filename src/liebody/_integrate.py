@@ -540,15 +540,15 @@ _BATCH_SHAPE = _MEMO + "batch_shape"
 
 def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float) -> int:
     """Bytes of stage parameters an ensemble's plan keeps per body: none when every body
-    shares them (a scene without per-body parameters), else a row per stage (from the
-    plan of body 0)."""
+    shares them (a scene without per-body parameters), else its distinct stage rows (from
+    the plan of body 0)."""
     if method.sampled or not scene_batch_shape(scene):
         return 0
     try:
         plan = method.plan(scene.take(0), m0[0], dt)
     except ValueError:
         return 0  # refused: the run says why
-    return plan.n_stages * S.N_PARAMS * 8
+    return plan.params.shape[1] * S.N_PARAMS * 8
 
 
 def _check_potential(scene, model, q0: np.ndarray, n_bodies, t0: float) -> None:

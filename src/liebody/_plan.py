@@ -314,6 +314,13 @@ class Stage:
             cache[n] = p
         return p
 
+    def row_key(self) -> tuple:
+        """One body's parameter row as a tuple of numbers (equal rows, equal keys)."""
+        key = self.__dict__.get("_key")
+        if key is None:
+            key = self.__dict__["_key"] = tuple(self.rows(1)[0].tolist())
+        return key
+
     def scaled(self, g: float) -> Stage:
         """The stage run for ``g`` times as long (its clock advance scaled alike)."""
         return replace(self, coef=self.coef * g, clock=self.clock * g)
@@ -359,8 +366,11 @@ def sphere(coef: float, rate, clock: float = 0.0) -> Stage:
 class Plan:
     """A method made concrete for a group of bodies, their initial state and step.
 
-    ``params`` has a leading body axis, ``(N, s, N_PARAMS)``, or ``(1, s, N_PARAMS)`` when
-    every body of the group has the same parameters (stored once), ``model`` holds the torque
+    ``params`` holds the distinct parameter rows of the stages, with a leading body axis:
+    ``(N, r, N_PARAMS)``, or ``(1, r, N_PARAMS)`` when every body of the group has the same
+    parameters (stored once); stage ``j`` reads row ``slots[j]`` (a composition repeats
+    its base's few rows: ``splitting8``'s 61 stages read 3 rows on a free body, so
+    per-body parameters cost ``r`` rows a body, not one per stage). ``model`` holds the torque
     model's parameter rows (``(1, k)`` shared, or ``(N, k)``) and ``model_shared`` its block
     that every body reads (1-d, stored once); the structure (``kinds``,
     ``axes``, ``coefs``, ``clock``, ``merge_ends``) is common. ``family`` is the driver
@@ -373,6 +383,7 @@ class Plan:
     coefs: np.ndarray
     clock: np.ndarray
     params: np.ndarray
+    slots: np.ndarray
     merge_ends: bool
     family: int
     info: dict = field(default_factory=dict)
@@ -391,13 +402,18 @@ class Plan:
 
     @cached_property
     def first(self) -> tuple[np.ndarray, np.ndarray]:
-        """The stage parameters and the model's parameter row of the first body (views,
+        """The stage parameter rows and the model's parameter row of the first body (views,
         made once: the one-body runs read them on every call)."""
         return self.params[0], self.model[0]
 
     @property
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
+
+    def stage_rows(self, body: int = 0) -> np.ndarray:
+        """Body ``body``'s parameter row of every stage, ``(s, N_PARAMS)`` (a copy: the
+        plan keeps each distinct row once, :attr:`slots`)."""
+        return self.params[0 if self.params.shape[0] == 1 else body][self.slots]
 
     def with_info(self, info: dict) -> Plan:
         """This plan with another ``info`` (an initial state of the same key): the arrays
@@ -446,9 +462,16 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
     if not merged:  # a flow that does nothing (e.g. every rate zero)
         merged = [sphere(1.0, 0.0, clock=1.0)]
     kinds = np.array([s.kind for s in merged], dtype=np.int64)
-    rows = [s.rows(n) for s in merged]
+    distinct: list[Stage] = []  # a stage of each distinct parameter row, in order
+    slots = np.empty(len(merged), dtype=np.int64)
+    for j, st in enumerate(merged):
+        slots[j] = next((r for r, d in enumerate(distinct) if _same_params(d, st, n)),
+                        len(distinct))
+        if slots[j] == len(distinct):
+            distinct.append(st)
+    rows = [s.rows(n) for s in distinct]
     if all(r.shape[0] == 1 for r in rows):  # shared by every body: stored once
-        params = np.stack(rows, axis=1)  # (1, s, P)
+        params = np.stack(rows, axis=1)  # (1, r, P)
     else:
         params = np.stack([np.broadcast_to(r, (n, S.N_PARAMS)) for r in rows], axis=1)
     torques = params[:, :, S.P_TORQUE]
@@ -461,6 +484,7 @@ def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
         coefs=np.array([s.coef for s in merged], dtype=np.float64),
         clock=np.array([s.clock for s in merged], dtype=np.float64),
         params=np.ascontiguousarray(params),
+        slots=slots,
         merge_ends=len(merged) > 1 and _mergeable(merged[-1], merged[0], n),
         family=S.family_of(kinds),
         info=dict(info or {}),
@@ -481,8 +505,40 @@ def _mergeable(a: Stage, b: Stage, n: int) -> bool:
         return False
     if (a.rotor_moves or b.rotor_moves) and a.coef * b.clock != b.coef * a.clock:
         return False  # l(t) read at different fractions of the two stages' clocks
-    ra, rb = a.rows(n), b.rows(n)
-    return ra.shape == rb.shape and np.array_equal(ra, rb)
+    return _same_params(a, b, n)
+
+
+#: a stage's parameter fields and their ranks with the body axis (:meth:`Stage.rows`)
+_FIELDS = (("moments", 2), ("rate", 1), ("eps", 1), ("rotor", 2))
+
+
+def _same_params(a: Stage, b: Stage, n: int) -> bool:
+    """Whether two stages have the same parameter row for every one of ``n`` bodies
+    (:meth:`Stage.rows`), without making the rows of many: fields held in the same memory
+    are equal; others are compared on the first body, then on all."""
+    if n == 1:  # one body: its rows as numbers (made once per stage)
+        return a.row_key() == b.row_key()
+    if a.torque != b.torque:
+        return False
+    for name, rank in _FIELDS:
+        u, v = getattr(a, name), getattr(b, name)
+        if u is v:
+            continue
+        u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+        if _same_memory(u, v):
+            continue
+        u1, v1 = (u[0] if u.ndim == rank else u), (v[0] if v.ndim == rank else v)
+        if not np.array_equal(u1, v1):
+            return False
+        if (u.ndim == rank or v.ndim == rank) and not np.array_equal(*np.broadcast_arrays(u, v)):
+            return False
+    return True
+
+
+def _same_memory(u: np.ndarray, v: np.ndarray) -> bool:
+    """Whether two arrays are views of the same numbers (same data, shape and strides)."""
+    return (u.shape == v.shape and u.strides == v.strides and u.size > 0
+            and u.__array_interface__["data"][0] == v.__array_interface__["data"][0])
 
 
 def compose(base: list[Stage], coefficients) -> list[Stage]:

@@ -46,6 +46,9 @@ _SLICE_SECONDS = 0.2
 _FIRST_WORK = 64
 #: a slice is at most this many times the previous one (the first ones are noisy)
 _GROWTH = 16
+#: where the one-body driver's arguments (``_engine.one_body_args``) hold the start time,
+#: the steps done before the call and the steps to do
+_T0, _STEP0, _N_STEPS = 8, 9, 10
 
 
 def _join(pool) -> None:
@@ -254,7 +257,7 @@ class Stepper:
             self.info = dict(plan.info)  # its own (the plan is cached and shared)
             self._pu = params[:, S.P_U0:S.P_U0 + max(1, self._scene.controls)]
             self._ctl = np.zeros(2, dtype=np.int64)
-            self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params,
+            self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params, plan.slots,
                           bool(plan.merge_ends), self._dt)
             self._tail = (True, self._state, self._ctl, np.empty((1, 4)), np.empty((1, 3)),
                           self._model.address, plan.model[0], plan.model_shared,
@@ -265,7 +268,7 @@ class Stepper:
             runner(*args)  # compiles on first use; no step
             self._call = _entry_point(runner, args)
             # one step: save_every = 1 leaves ctl at (1, 0), as the next step needs it
-            args[9] = 1
+            args[_N_STEPS] = 1
             self._args = args
             self._fast = True
             return
@@ -291,7 +294,7 @@ class Stepper:
         p = g["plan"]
         return {"g": g, "c": c, "fn": g["runner"], "resolved": False,
                 "head": (p.kinds, p.axes, p.coefs, p.clock, body_rows(g["params"], c),
-                         g["merge"], self._dt),
+                         p.slots, g["merge"], self._dt),
                 "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
                          g["done"][c], g["status"][c],
                          self._model.driver_address(g["simd"]),
@@ -342,7 +345,7 @@ class Stepper:
         try:
             if n.__class__ is int and n == 1 and self._fast:  # the control loop
                 args, ctl = self._args, self._ctl
-                args[8] = self._k
+                args[_STEP0] = self._k
                 ctl[0] = 2  # a good step leaves 1 (save_every): tells whether it ran
                 try:
                     status = self._call(*args)[2]
@@ -752,7 +755,7 @@ class Stepper:
             self._t0 = t0
             self._k = 0.0
             if self._fast:
-                self._args[7] = self._t0
+                self._args[_T0] = self._t0
 
     def _clock(self, done: int) -> float:
         """The time after ``done`` more steps."""

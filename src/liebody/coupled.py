@@ -498,7 +498,7 @@ class _Coupled:
             rows = plan.params if plan.params.shape[0] == 1 else plan.params[a:a + len(idx)]
             for s, seg in enumerate(segs_all[g][2]):
                 for r, j in enumerate(seg):
-                    self.rates[b, s, r, 0, :len(idx)] = rows[:, j, S.P_RATE]
+                    self.rates[b, s, r, 0, :len(idx)] = rows[:, plan.slots[j], S.P_RATE]
         self.rk, self.ra, self.rc = rk, ra, rc
         self.rmax = np.abs(self.rates).max(axis=(-2, -1))
         self.lmax = np.zeros(B)

@@ -3,6 +3,7 @@ the check before the run, and the check respects a limit on the address space.""
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import tracemalloc
@@ -12,6 +13,7 @@ import pytest
 
 import liebody
 from liebody import _integrate
+from liebody._kernels import stages as S
 
 
 def _beyond_samples(scene, method: str, n: int) -> float:
@@ -112,12 +114,21 @@ def test_the_check_counts_what_the_run_allocates_beyond_the_samples(monkeypatch)
                                          r"samples .* more than the 0\.1 GB"):
         liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method="splitting2",
                           save_every=None)
-    # per-body stage parameters are counted too: 96 B a stage for per-body inertia
-    moments = np.tile([1.0, 2.0, 3.0], (60_000, 1)) * np.linspace(1, 2, 60_000)[:, None]
-    batch = liebody.FreeBody(liebody.RigidBody.batch(moments))
-    with pytest.raises(ValueError, match=r"60,000 bodies need [0-9,]+ B each"):
-        liebody.integrate(batch, L0=L0[:60_000], dt=0.01, steps=3, method="splitting8",
-                          save_every=None)
+    # per-body stage parameters are counted too, each distinct row once: for per-body
+    # inertia, splitting8's 52 stages read a few rows (the rotations' rates), not one each
+    row = S.N_PARAMS * 8
+    moments = np.tile([1.0, 2.0, 3.0], (200_000, 1)) * np.linspace(1, 2, 200_000)[:, None]
+    with pytest.raises(ValueError, match=r"200,000 bodies need [0-9,]+ B each") as info:
+        liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(moments)), L0=L0,
+                          dt=0.01, steps=3, method="splitting8", save_every=None)
+    need = int(re.search(r"need ([0-9,]+) B each", str(info.value))[1].replace(",", ""))
+    assert _integrate.RUN_BYTES_PER_BODY + row <= need <= _integrate.RUN_BYTES_PER_BODY + 4 * row
+    fits = 100_000_000 // (need + 2 * 7 * 8) - 2_000  # (two samples each; 9,000 bodies at
+    # a row per stage)
+    tr = liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(moments[:fits])),
+                           L0=L0[:fits], dt=0.01, steps=3, method="splitting8",
+                           save_every=None)
+    assert np.all(tr.status == "complete")
     liebody.integrate(scene, L0=L0[:20_000], dt=0.01, steps=3, method="splitting8",
                       save_every=None)  # shared: fits
 

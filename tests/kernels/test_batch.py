@@ -107,7 +107,7 @@ class Run:
         merge = p.merge_ends if merge is None else merge
         done = 0
         for k in slices:
-            runner(p.kinds, p.axes, p.coefs, p.clock, p.params, merge, self.h, 0.0,
+            runner(p.kinds, p.axes, p.coefs, p.clock, p.params, p.slots, merge, self.h, 0.0,
                    float(done), k, self.save_every, done + k == self.n_steps, self.state,
                    self.ctl, self.q, self.m, self.saved, self.done, self.status, 0,
                    p.model, p.model_shared, self.dref, self.dmax)
@@ -226,12 +226,12 @@ def test_a_plan_it_cannot_run_stops_like_the_scalar_driver():
     top, _ = _case_run(CASES[6], 4, 3, 1)
     top.plan.params = per_body(top.plan.params, 4)
     kick = int(np.flatnonzero(top.plan.kinds == S.KICK)[0])
-    top.plan.params[2, kick, S.P_TORQUE] = S.MAX_MODEL_CODE + 1
+    top.plan.params[2, top.plan.slots[kick], S.P_TORQUE] = S.MAX_MODEL_CODE + 1
     top.go(simd(top.plan))
     assert list(top.status) == [0, 0, S.STATUS_BAD_STAGE, 0]
     top, _ = _case_run(CASES[6], 4, 3, 1)
     top.plan.params = per_body(top.plan.params, 4)
-    top.plan.params[1, kick, S.P_TORQUE] = S.TORQUE_NONE
+    top.plan.params[1, top.plan.slots[kick], S.P_TORQUE] = S.TORQUE_NONE
     top.go(simd(top.plan))
     assert list(top.status) == [0, S.STATUS_BAD_STAGE, 0, 0]
 
@@ -595,8 +595,9 @@ def test_norms_over_1e8_steps(case):
     for k in [10**6] + [10**7 - 10**6] + [10**7] * 9:
         run.n_steps = done + k
         p = run.plan
-        runner(p.kinds, p.axes, p.coefs, p.clock, p.params, False, h, 0.0, float(done), k,
-               10**8, done + k == 10**8, run.state, run.ctl, run.q, run.m, run.saved,
+        runner(p.kinds, p.axes, p.coefs, p.clock, p.params, p.slots, False, h, 0.0,
+               float(done), k, 10**8, done + k == 10**8, run.state, run.ctl, run.q, run.m,
+               run.saved,
                run.done, run.status, 0, p.model, p.model_shared, run.dref, run.dmax)
         done += k
         if done == 10**6:

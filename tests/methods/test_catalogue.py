@@ -176,7 +176,7 @@ def test_every_method_declares_what_it_handles():
 
 
 def _plan_arrays(plan):
-    return (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params)
+    return (plan.kinds, plan.axes, plan.coefs, plan.clock, plan.params, plan.slots)
 
 
 @pytest.mark.parametrize(("name", "scene", "per_state"), [

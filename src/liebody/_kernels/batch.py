@@ -438,10 +438,11 @@ def _model_kick_block(buf, mc, par, j, nb, t, tau):
     ``mc`` is the block's model context (see ``_run_block``), ``par`` the gathered
     parameters (the model's ``block_constants`` in ``par[j, 0..2]``)."""
     code, addr, mpar, params, idx, scratch = mc[0], mc[2], mc[3], mc[4], mc[5], mc[6]
+    slot = mc[11][j]  # the stage's row of params
     # the time-only part (the sources' positions) once for the block, from the shared block
     dispatch.prepare(code, mc[10], t, scratch)
     out = mc[7]
-    dispatch.torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, buf,
+    dispatch.torque_block(code, mpar, params, par, j, slot, addr, t, scratch, idx, nb, buf,
                           (W0, X0, Y0, Z0, M10, M20, M30), out, mc[8], mc[9])
     for b in range(nb):
         _add_kick(buf, b, out[0, b], out[1, b], out[2, b], tau)
@@ -767,7 +768,7 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
 
 # ------------------------------------------------------------------ the drivers
 @jit(inline="always")
-def _gather(kinds, params, mpar, ms, idx, nb, par):
+def _gather(kinds, params, slots, mpar, ms, idx, nb, par):
     """The block's stage parameters into ``par`` ``(stages, N_SLOTS, BLOCK)`` (a kick's from
     the model's parameter rows ``mpar``, shared or per body, and its shared block ``ms``:
     the model's ``dispatch.block_constants`` and torque bound)."""
@@ -776,7 +777,7 @@ def _gather(kinds, params, mpar, ms, idx, nb, par):
     for j in range(kinds.shape[0]):
         k = kinds[j]
         for b in range(nb):
-            row = params[0 if pshared else idx[b], j]
+            row = params[0 if pshared else idx[b], slots[j]]
             mrow = mpar[0] if shared else mpar[idx[b]]
             if k == DMV:
                 I1, I2, I3 = row[P_I1], row[P_I2], row[P_I3]
@@ -794,7 +795,8 @@ def _gather(kinds, params, mpar, ms, idx, nb, par):
 
 
 @jit
-def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t0, step0,
+def _run_block(family, diag, kinds, axes, coefs, clock, params, slots, merge_ends, h, t0,
+               step0,
                n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
                torque_addr, mpar, ms, dref, dmax, idx, nb, buf, par, fast, alive):
     """Run ``n_steps`` steps of the ``nb`` bodies ``idx[:nb]`` (same ``ctl``).
@@ -820,19 +822,20 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, merge_ends, h, t
             mrow = mpar[0] if mpar.shape[0] == 1 else mpar[i]
             for r in range(3):
                 buf[(R_DREF + 3 + r) * BLOCK + b] = mrow[r] if gravity else 0.0
-    _gather(kinds, params, mpar, ms, idx, nb, par)
+    _gather(kinds, params, slots, mpar, ms, idx, nb, par)
     # the model context of the kicks and diagnostics: (kick model code, potential code of
     # the diagnostics, user callback address, model rows, stage rows, body indices,
     # scratch for the time-only part of the torque, the block's torques and work rows,
-    # a user torque's controls and parameter rows per body, the model's shared block)
+    # a user torque's controls and parameter rows per body, the model's shared block, the
+    # stages' rows of params)
     mcode = 0
     for j in range(kinds.shape[0]):
         if kinds[j] == KICK:
-            mcode = int(params[0 if params.shape[0] == 1 else idx[0], j, P_TORQUE])
+            mcode = int(params[0 if params.shape[0] == 1 else idx[0], slots[j], P_TORQUE])
     dcode = int(dref[idx[0], 3]) if diag else 0
     scratch = np.empty(dispatch.scratch_size(mcode, ms))
     mc = (mcode, dcode, torque_addr, mpar, params, idx, scratch, np.empty((6, BLOCK)),
-          np.zeros((BLOCK, N_CONTROLS)), np.zeros(BLOCK, dtype=np.int64), ms)
+          np.zeros((BLOCK, N_CONTROLS)), np.zeros(BLOCK, dtype=np.int64), ms, slots)
     until_save = ctl[idx[0], 0]
     pending = ctl[idx[0], 1] != 0
     n_saved = 0
@@ -935,17 +938,18 @@ def _simd_runner(family: int, diag: bool = False):
     constants); the signature and semantics of ``batch_drivers.BATCH_RUNNERS[family]``."""
 
     @jit(tag=family_tag(family, diag))
-    def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar, ms,
-            dref, dmax, model=(0,)):
+    def run(kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+            save_every, final, state, ctl, q_out, m_out, saved, done, status, torque_addr,
+            mpar, ms, dref, dmax, model=(0,)):
         # (``model``, the one-body drivers' model token, is not used: the block kernels
         # are compiled once for every model)
         ns = kinds.shape[0]
         n = state.shape[0]
-        bad = ns == 0
+        bad = ns == 0 or slots.shape[0] != ns
         for j in range(ns):
             k = kinds[j]
-            if k < 0 or k >= SIMD_MEMBERS.shape[1] or not SIMD_MEMBERS[family, k]:
+            if (k < 0 or k >= SIMD_MEMBERS.shape[1] or not SIMD_MEMBERS[family, k]
+                    or slots[j] < 0 or slots[j] >= params.shape[1]):
                 bad = True
         for i in range(n):  # bodies whose plan this driver cannot run
             if status[i] != STATUS_OK:
@@ -954,7 +958,7 @@ def _simd_runner(family: int, diag: bool = False):
                 status[i] = STATUS_BAD_STAGE
                 continue
             for j in range(ns):  # a kick of no model, or an unknown one
-                code = params[0 if params.shape[0] == 1 else i, j, P_TORQUE]
+                code = params[0 if params.shape[0] == 1 else i, slots[j], P_TORQUE]
                 if kinds[j] == KICK and not (0 < code <= MAX_MODEL_CODE):
                     status[i] = STATUS_BAD_STAGE
         if bad or n_steps <= 0:
@@ -982,9 +986,9 @@ def _simd_runner(family: int, diag: bool = False):
                 i += 1
             if nb > 0:  # family, diag as plain values: one compilation for all drivers
                 _run_block(np.int64(family), np.bool_(diag), kinds, axes, coefs, clock,
-                           params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
-                           ctl, q_out, m_out, saved, done, status, torque_addr, mpar, ms,
-                           dref, dmax, idx, nb, buf, par, fast, alive)
+                           params, slots, merge_ends, h, t0, step0, n_steps, save_every, final,
+                           state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar,
+                           ms, dref, dmax, idx, nb, buf, par, fast, alive)
         return 0
 
     return run

@@ -300,8 +300,9 @@ def _runner(family: int, diag: bool = False):
     """
 
     @jit(tag=family_tag(family, diag))
-    def run(kinds, axes, coefs, clock, params, merge_ends, h, t0, step0, n_steps, save_every,
-            final, state, ctl, q_out, m_out, torque_addr, mp, ms, dref, dmax, model=(0,)):
+    def run(kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+            save_every, final, state, ctl, q_out, m_out, torque_addr, mp, ms, dref, dmax,
+            model=(0,)):
         """Advance ``state`` (w, x, y, z, m1, m2, m3) by ``n_steps`` steps of size ``h``.
 
         The run may be cut into slices (calls) of any length without changing a bit of
@@ -313,6 +314,8 @@ def _runner(family: int, diag: bool = False):
         0). Every ``save_every``-th
         step of the run, and the last step of the last slice (``final``), is written to
         consecutive rows of ``q_out`` / ``m_out``. ``state`` is updated in place.
+        Stage ``j`` reads its parameters from row ``slots[j]`` of ``params`` (the plan's
+        distinct rows, ``_plan.Plan``).
         ``torque_addr`` is the address of the user torque callback
         (``user_torque.adapt_user_torque``), 0 for none, ``mp`` and ``ms`` the torque model's
         parameters (``liebody._models``): the body's row and the block shared by every body
@@ -334,8 +337,12 @@ def _runner(family: int, diag: bool = False):
         Run with ``merge_ends`` false, so that every step ends on a full step's state.
         """
         ns = kinds.shape[0]
-        for j in range(ns):  # every kind must be one the family runs
+        if slots.shape[0] != ns:
+            return 0, 0, STATUS_BAD_STAGE
+        for j in range(ns):  # every kind must be one the family runs, every row exist
             if kinds[j] < 0 or kinds[j] >= MEMBERS.shape[1] or not MEMBERS[family, kinds[j]]:
+                return 0, 0, STATUS_BAD_STAGE
+            if slots[j] < 0 or slots[j] >= params.shape[0]:
                 return 0, 0, STATUS_BAD_STAGE
         w, x, y, z = state[0], state[1], state[2], state[3]
         m1, m2, m3 = state[4], state[5], state[6]
@@ -360,27 +367,28 @@ def _runner(family: int, diag: bool = False):
                 if j == last and merge:
                     tau = (coefs[last] + coefs[0]) * h
                 kind = kinds[j]
+                sj = slots[j]  # its row of params
                 # the stage: the branches of this driver's family only survive compilation
                 if family == F_AXES:
-                    r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, P_RATE], tau)
+                    r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[sj, P_RATE], tau)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
                     if family == F_KICKED and kind == KICK:
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
-                            params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
+                            params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
                     elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
                         w, x, y, z, m1, m2, m3, status = kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            kind, params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
                             model)
                     elif family == F_SPLITTING and kind == DAMP:
-                        w, x, y, z, m1, m2, m3, status = _damp(params[j], tau, w, x, y, z,
+                        w, x, y, z, m1, m2, m3, status = _damp(params[sj], tau, w, x, y, z,
                                                                m1, m2, m3)
                     elif kind == AXIS:
-                        r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[j, P_RATE], tau)
+                        r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[sj, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     elif kind == AXIS_RECURRING:
                         r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axes[j],
-                                                params[j, P_RATE], tau)
+                                                params[sj, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     elif kind == AXIS_SHIFTED:
                         # the rotor momentum at the midpoint of the stage's clock interval
@@ -389,45 +397,45 @@ def _runner(family: int, diag: bool = False):
                         if j == last and merge:
                             span = (clock[last] + clock[0]) * h
                         r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axes[j],
-                                              params[j, P_RATE],
-                                              rotor_at(params[j], axes[j], t + 0.5 * span), tau)
+                                              params[sj, P_RATE],
+                                              rotor_at(params[sj], axes[j], t + 0.5 * span), tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                     else:
-                        r = sphere_flow(w, x, y, z, m1, m2, m3, params[j, P_RATE], tau)
+                        r = sphere_flow(w, x, y, z, m1, m2, m3, params[sj, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_DMV_FREE:
-                    w, x, y, z, m1, m2, m3, status = _dmv(params[j], tau, w, x, y, z, m1, m2,
+                    w, x, y, z, m1, m2, m3, status = _dmv(params[sj], tau, w, x, y, z, m1, m2,
                                                           m3)
                 elif family == F_DMV:
                     if kind == DMV:
-                        w, x, y, z, m1, m2, m3, status = _dmv(params[j], tau, w, x, y, z, m1,
+                        w, x, y, z, m1, m2, m3, status = _dmv(params[sj], tau, w, x, y, z, m1,
                                                               m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = kick(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            kind, params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
                             model)
                 elif family == F_EXACT:
                     if kind == EXACT:
-                        w, x, y, z, m1, m2, m3, status = _exact(params[j], tau, w, x, y, z,
+                        w, x, y, z, m1, m2, m3, status = _exact(params[sj], tau, w, x, y, z,
                                                                 m1, m2, m3)
                     else:
                         w, x, y, z, m1, m2, m3, status = _kick_or_damp(
-                            kind, params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
+                            kind, params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
                             model)
                 elif family == F_EULER:
-                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
+                    r = euler_step(t, w, x, y, z, m1, m2, m3, params[sj], tau, torque_addr, mp, ms,
                                    model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RK4:
-                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
+                    r = rk4_step(t, w, x, y, z, m1, m2, m3, params[sj], tau, torque_addr, mp, ms,
                                  model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_LIE_EULER:
-                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp,
+                    r = lie_euler_step(t, w, x, y, z, m1, m2, m3, params[sj], tau, torque_addr, mp,
                                        ms, model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 elif family == F_RKMK4:
-                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[j], tau, torque_addr, mp, ms,
+                    r = rkmk4_step(t, w, x, y, z, m1, m2, m3, params[sj], tau, torque_addr, mp, ms,
                                    model)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
                 else:
@@ -435,7 +443,7 @@ def _runner(family: int, diag: bool = False):
                     if j == last and merge:
                         span = (clock[last] + clock[0]) * h
                     w, x, y, z, m1, m2, m3, status = _any_stage(
-                        kind, axes[j], params[j], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp,
+                        kind, axes[j], params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp,
                         ms, model, span)
                 if status != STATUS_OK:
                     break

@@ -192,16 +192,16 @@ def block_constants(code, mp):
 
 
 @jit(inline="always")
-def torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, state, rows, out, U,
-                 R):
+def torque_block(code, mpar, params, par, j, slot, addr, t, scratch, idx, nb, state, rows, out,
+                 U, R):
     """:func:`torque_prepared` for the ``nb`` bodies ``idx`` of a SIMD block: body ``b``'s
     ``w, x, y, z, m1, m2, m3`` at ``state[rows[k] + b]``, its torque into ``out[0..2, b]``
     (``par[j, 0..2, b]``: its :func:`block_constants`).
     A model with a vectorised block kernel runs it; a user torque is called once for the
     block through its block callback (``addr``: ``user_torque.adapt_user_block``; ``U``
     ``(BLOCK, N_CONTROLS)`` and ``R`` ``(BLOCK,)`` int64 are work arrays for the bodies'
-    controls and parameter rows); any other is evaluated body by body (``params[i, j]``:
-    body ``i``'s row of stage ``j``, ``(1, s, P)`` when shared)."""
+    controls and parameter rows); any other is evaluated body by body (``params[i, slot]``:
+    body ``i``'s row of stage ``j``, ``(1, r, P)`` when shared)."""
     if code == gravity_gradient.CODE:
         gravity_gradient.torque_block(scratch, par, j, nb, state, rows, out)
         return
@@ -212,7 +212,7 @@ def torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, state, r
             i = idx[b]
             R[b] = 0 if mshared else i
             for c in range(N_CONTROLS):
-                U[b, c] = params[0 if pshared else i, j, P_U0 + c]
+                U[b, c] = params[0 if pshared else i, slot, P_U0 + c]
         user_torque.call_block(addr, t, nb, state, rows, U, mpar, R, out)
         return
     mshared = mpar.shape[0] == 1
@@ -220,7 +220,7 @@ def torque_block(code, mpar, params, par, j, addr, t, scratch, idx, nb, state, r
     for b in range(nb):
         i = idx[b]
         out[0, b], out[1, b], out[2, b] = torque_prepared(
-            code, mpar[0] if mshared else mpar[i], scratch, params[0 if pshared else i, j],
+            code, mpar[0] if mshared else mpar[i], scratch, params[0 if pshared else i, slot],
             addr, t, state[rows[0] + b], state[rows[1] + b], state[rows[2] + b],
             state[rows[3] + b], state[rows[4] + b], state[rows[5] + b], state[rows[6] + b])
 
