@@ -716,12 +716,15 @@ def _merged_flows(flows: tuple) -> tuple:
     kick reads the clock at its start, so it merges with the next kick only when it
     leaves the clock where it was; a ``T_k`` merges only when the clocks are in
     proportion to the fractions (one flow on the extended phase space of a moving rotor);
-    ``damp`` (a second-order step, not an exact flow) never merges, nor a piece of zero
-    fraction that advances the clock (kept as written); the first and last pieces are
-    not merged across the step's ends."""
+    ``damp`` (a second-order step, not an exact flow) never merges; a piece of zero
+    fraction that advances the clock gives its advance to the piece before (kept where
+    it is the first); the first and last pieces are not merged across the step's ends."""
     out: list[tuple[str, float, float]] = []
     for name, frac, clock in flows:
         if frac == 0.0 and clock == 0.0:
+            continue
+        if frac == 0.0 and out:
+            out[-1] = (out[-1][0], out[-1][1], out[-1][2] + clock)
             continue
         if (out and out[-1][0] == name and name != "damp" and frac != 0.0
                 and out[-1][1] != 0.0):

@@ -444,13 +444,18 @@ _NO_SHARED.flags.writeable = False
 def compile_plan(stages: list[Stage], info: dict | None = None, n: int = 1,
                  model: np.ndarray | None = None, model_shared: np.ndarray | None = None
                  ) -> Plan:
-    """Build a :class:`Plan` for ``n`` bodies: drop identity stages, merge adjacent flows
-    of one Hamiltonian (for every body of the group); ``model``, ``model_shared``: the
-    torque model's parameter rows and shared block."""
+    """Build a :class:`Plan` for ``n`` bodies: drop identity stages (an advance of the
+    clock they carry goes to the stage before), merge adjacent flows of one Hamiltonian
+    (for every body of the group); ``model``, ``model_shared``: the torque model's
+    parameter rows and shared block."""
     merged: list[Stage] = []
     for st in stages:
-        if st.identity:
-            continue  # e.g. the R rotation of SR2 on a symmetric body
+        if st.identity:  # e.g. the R rotation of SR2 on a symmetric body
+            if st.clock == 0.0:
+                continue
+            if merged and not merged[-1].rotor_moves:  # (that one reads l(t) mid-clock)
+                merged[-1] = replace(merged[-1], clock=merged[-1].clock + st.clock)
+                continue
         if merged and _mergeable(merged[-1], st, n):
             both = replace(merged[-1], coef=merged[-1].coef + st.coef,
                            clock=merged[-1].clock + st.clock)
