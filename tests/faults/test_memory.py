@@ -125,6 +125,13 @@ def test_the_check_counts_what_the_run_allocates_beyond_the_samples(monkeypatch)
     assert _integrate.RUN_BYTES_PER_BODY + row <= need <= _integrate.RUN_BYTES_PER_BODY + 4 * row
     fits = 100_000_000 // (need + 2 * 7 * 8) - 2_000  # (two samples each; 9,000 bodies at
     # a row per stage)
+    # a few more do not fit with their two samples: no save_every helps, fewer bodies do
+    more = 100_000_000 // (need + 2 * 7 * 8) + 1_000
+    with pytest.raises(ValueError, match=rf"{more:,} bodies need [0-9.]+ GB for their 2 "
+                                         r"samples .* run fewer bodies per call"):
+        liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(moments[:more])),
+                          L0=L0[:more], dt=0.01, steps=3, method="splitting8",
+                          save_every=None)
     tr = liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(moments[:fits])),
                            L0=L0[:fits], dt=0.01, steps=3, method="splitting8",
                            save_every=None)
