@@ -71,6 +71,8 @@ class EnsembleRun:
         self.dref = (diagnostic_reference(scene, model, q0, m0, t0) if diagnostics
                      else np.zeros((n, S.DREF_WIDTH)))
         self.dmax = np.zeros((n, 3))
+        #: the body of each row of the samples while the groups run (None: body order)
+        self.order: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -137,8 +139,12 @@ class EnsembleRun:
         groups = self.method.plans(self.scene, self.m0, self.dt)
         runners = [self._runner(plan) for _, plan in groups]
         self.info = groups_info(groups, runners)
-        work = [self._group(idx, plan, r[0], r[1])
-                for (idx, plan), r in zip(groups, runners, strict=True)]
+        if len(groups) > 1:  # each group on contiguous rows of the samples, in this order
+            self.order = np.concatenate([idx for idx, _ in groups])
+            self.q_out[:, 0], self.m_out[:, 0] = self.q0[self.order], self.m0[self.order]
+        starts = np.cumsum([0] + [len(idx) for idx, _ in groups])
+        work = [self._group(idx, plan, r[0], r[1], slice(a, a + len(idx)))
+                for (idx, plan), r, a in zip(groups, runners, starts, strict=False)]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
         done = 0
         with _pool(min(self.threads, len(chunks))) as pool:
@@ -159,8 +165,11 @@ class EnsembleRun:
         self._collect(work)
         return self._result(len(self.t))
 
-    def _group(self, idx, plan, runner, simd: bool = False) -> dict:
-        """A group's arrays: views of the ensemble's when its bodies are all of them."""
+    def _group(self, idx, plan, runner, simd: bool = False, rows: slice = slice(None)
+               ) -> dict:
+        """A group's arrays: views of the ensemble's when its bodies are all of them; its
+        samples are the rows ``rows`` of the ensemble's (in the groups' order, put back in
+        body order by :meth:`_collect`)."""
         whole = len(idx) == self.n
         sel = slice(None) if whole else idx
         # "saved" starts at 1: the kernel writes sample 1 + (samples saved so far)
@@ -174,11 +183,7 @@ class EnsembleRun:
              "done": np.zeros(len(idx), dtype=np.int64),
              "status": np.zeros(len(idx), dtype=np.int64),
              "dref": self.dref[sel], "dmax": np.zeros((len(idx), 3))}
-        if whole:
-            g["q"], g["m"] = self.q_out, self.m_out
-        else:
-            g["q"] = np.empty((len(idx),) + self.q_out.shape[1:])
-            g["m"] = np.empty((len(idx),) + self.m_out.shape[1:])
+        g["q"], g["m"] = self.q_out[rows], self.m_out[rows]
         return g
 
     def _run_chunk(self, g, c: slice, done: int, k: int, final: bool) -> None:
@@ -190,11 +195,14 @@ class EnsembleRun:
                                 g["dref"][c], g["dmax"][c]))
 
     def _collect(self, work) -> None:
+        if self.order is not None:  # the samples back in body order (once)
+            from liebody._kernels.rows import unpermute_rows
+
+            order, self.order = self.order, None
+            for a in (self.q_out, self.m_out):
+                unpermute_rows(a.reshape(self.n, -1), order, np.zeros(self.n, dtype=np.bool_))
         for g in work:
             idx = g["idx"]
-            if not g["whole"]:
-                self.q_out[idx, 1:] = g["q"][:, 1:]
-                self.m_out[idx, 1:] = g["m"][:, 1:]
             self.status[idx] = g["status"]
             self.state[idx] = g["state"]
             self.done[idx] = g["done"]
