@@ -318,67 +318,97 @@ _OWN_REASON = "\0"
 DISSIPATIVE_RISE_TOL = ENERGY_TOL
 
 
+#: bodies the ensemble check works through at a time (its temporaries, about 200 B a
+#: body, stay bounded)
+CHECK_CHUNK = 1 << 15
+
+
 def _invariant_problems(traj: Trajectory) -> list[str]:
     """The invariants of ``traj`` that left their tolerance between its first and last
     sample, in words (empty for a healthy run). For an ensemble, per body: the words say
     how many bodies and give one (failed bodies are left out: they warned already)."""
     if traj.q.ndim == 2:
         return _one_body_problems(traj)
+    n = traj.q.shape[0]
+    found: dict[int, list] = {}  # check -> [bodies, first body, its words]
+    for a in range(0, n, CHECK_CHUNK):
+        for key, count, i, text in _chunk_problems(traj, a, min(n, a + CHECK_CHUNK)):
+            if key in found:
+                found[key][0] += count
+            else:
+                found[key] = [count, i, text]
+    out = []
+    for key in sorted(found):
+        count, i, text = found[key]
+        own = text.startswith(_OWN_REASON)  # (the mark stays first)
+        out.append(_OWN_REASON * own + f"{count} of {n} bodies (e.g. body {i}): " + text[own:])
+    return out
+
+
+def _chunk_problems(traj: Trajectory, a: int, b: int) -> list[tuple[int, int, int, str]]:
+    """The checks of :func:`_invariant_problems` that bodies ``a .. b - 1`` of an ensemble
+    fail: ``(check, bodies, first body, its words)``."""
     method, scene = traj.method, traj.scene
     caps = scene.capabilities
-    ens = traj.q.ndim == 3
-    q = traj.q if ens else traj.q[None]
-    L = traj.L if ens else traj.L[None]
+    q, L = traj.q[a:b], traj.L[a:b]
     ok = np.isfinite(q[:, -1]).all(axis=1) & np.isfinite(L[:, -1]).all(axis=1)
-    moments = np.broadcast_to(np.asarray(scene.moments, dtype=float), (q.shape[0], 3))
+    moments = np.asarray(scene.moments, dtype=float)
+    moments = np.broadcast_to(moments if moments.ndim == 1 else moments[a:b], (b - a, 3))
     out = []
 
-    def report(bad, words):
+    def report(key, bad, words):
         bad = bad & ok
         if bad.any():
             i = int(np.argmax(bad))
-            who = f"{int(bad.sum())} of {len(bad)} bodies (e.g. body {i}): " if ens else ""
-            text = words(i)
-            own = text.startswith(_OWN_REASON)  # (the mark stays first)
-            out.append(_OWN_REASON * own + who + text[own:])
+            out.append((key, int(bad.sum()), a + i, words(i)))
 
     qn = np.linalg.norm(q[:, -1], axis=1)
-    report(~(np.abs(qn - 1.0) <= QNORM_TOL),
+    report(0, ~(np.abs(qn - 1.0) <= QNORM_TOL),
            lambda i: f"|q| = {qn[i]:.6g} at the end, off 1 by more than {QNORM_TOL:g}")
     size = np.max(np.abs(L[:, -1]), axis=1)
-    report(~(size <= MAX_MOMENTUM),
+    report(1, ~(size <= MAX_MOMENTUM),
            lambda i: f"{_OWN_REASON}|L| reached {size[i]:.3g} at the end, beyond "
                      f"{MAX_MOMENTUM:.0e}: the torque drove L out of float64's range (the "
                      f"kinetic energy overflows; the end state is not to be trusted)")
     if method.keeps_casimir and not caps.torque:
         g0, g1 = np.linalg.norm(L[:, 0], axis=1), np.linalg.norm(L[:, -1], axis=1)
-        report(~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
+        report(2, ~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
                lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
                          f"{CASIMIR_TOL:g} relative")
-    rotor = np.broadcast_to(rotor_momentum(scene), (q.shape[0], 3))  # (gyrostats)
+    rotor = rotor_momentum(scene)  # (gyrostats)
+    rotor = np.broadcast_to(rotor if rotor.ndim == 1 else rotor[a:b], (b - a, 3))
     T0 = 0.5 * np.sum((L[:, 0] - rotor) ** 2 / moments, axis=1)
     T1 = 0.5 * np.sum((L[:, -1] - rotor) ** 2 / moments, axis=1)
     if (method.symplectic or method.keeps_energy) and caps.conservative:
-        ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (N, 2, 4)
+        ends = np.stack([q[:, 0], q[:, -1]], axis=1)  # (n, 2, 4)
         ends = np.where(ok[:, None, None], ends, [1.0, 0.0, 0.0, 0.0])
-        V = np.asarray(scene.potential(ends / np.linalg.norm(ends, axis=-1)[..., None]))
+        V = np.asarray(_chunk_potential(scene, a, b, ends / np.linalg.norm(
+            ends, axis=-1)[..., None]))
         V = np.broadcast_to(V, ends.shape[:2])
         finite = np.isfinite(V).all(axis=1)
-        report(~finite,
+        report(3, ~finite,
                lambda i: f"{_OWN_REASON}the scene's potential is not finite (V = "
                          f"{V[i, 0]:.6g} at the start, {V[i, 1]:.6g} at the end), so the "
                          f"energy could not be checked: check potential(q) at these "
                          f"orientations")
         e0, e1 = T0 + V[:, 0], T1 + V[:, 1]
         scale = T0 + np.abs(V[:, 0])
-        report(finite & (scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
+        report(4, finite & (scale > 0) & ~(np.abs(e1 - e0) <= ENERGY_TOL * scale),
                lambda i: f"the energy went from {e0[i]:.6g} to {e1[i]:.6g}, more than "
                          f"{ENERGY_TOL:.0%} of its scale {scale[i]:.3g}")
     if caps.dissipative and not caps.torque:  # (a torque may add energy)
         rise, k = _dissipative_rise(L, moments)
-        report((T1 > T0 * (1.0 + 1e-9)) | (rise > DISSIPATIVE_RISE_TOL * T0),
+        report(5, (T1 > T0 * (1.0 + 1e-9)) | (rise > DISSIPATIVE_RISE_TOL * T0),
                lambda i: _rose_words(traj.t, T0[i], T1[i], rise[i], k[i]))
     return out
+
+
+def _chunk_potential(scene, a: int, b: int, q: np.ndarray) -> np.ndarray:
+    """The potential of bodies ``a .. b - 1`` of an ensemble at orientations ``q``."""
+    shape = getattr(scene, "batch_shape", ())
+    if shape and (a, b) != (0, shape[0]):
+        scene = scene.take(slice(a, b))
+    return scene.potential(q)
 
 
 def _dissipative_rise(L: np.ndarray, moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

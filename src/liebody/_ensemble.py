@@ -68,9 +68,10 @@ class EnsembleRun:
         self.saved = np.zeros(n, dtype=np.int64)
         self.info: dict = {}
         self.diag = diagnostics
+        # (without diagnostics the drivers never read them: rows of no numbers, no memory)
         self.dref = (diagnostic_reference(scene, model, q0, m0, t0) if diagnostics
-                     else np.zeros((n, S.DREF_WIDTH)))
-        self.dmax = np.zeros((n, 3))
+                     else np.zeros((n, 0)))
+        self.dmax = np.zeros((n, 3 if diagnostics else 0))
         #: the body of each row of the samples while the groups run (None: body order)
         self.order: np.ndarray | None = None
 
@@ -182,7 +183,7 @@ class EnsembleRun:
              "saved": np.ones(len(idx), dtype=np.int64),
              "done": np.zeros(len(idx), dtype=np.int64),
              "status": np.zeros(len(idx), dtype=np.int64),
-             "dref": self.dref[sel], "dmax": np.zeros((len(idx), 3))}
+             "dref": self.dref[sel], "dmax": np.zeros((len(idx), self.dmax.shape[1]))}
         g["q"], g["m"] = self.q_out[rows], self.m_out[rows]
         return g
 

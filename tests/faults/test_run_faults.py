@@ -473,3 +473,34 @@ def test_short_calls_from_many_threads_share_the_caches_safely(monkeypatch):
     assert not errors, errors
     for a, b in zip(out, serial, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_ensemble_check_counts_bodies_across_its_chunks(monkeypatch):
+    """The end-of-run check of an ensemble works through the bodies in chunks (its
+    temporaries bounded); the words are those of one pass: how many bodies and the first.
+    Tops of per-body mass, the heavy ones stepped too coarsely: their energy error is
+    measured here from the samples."""
+    from liebody import _engine
+
+    mass = np.array([1.0, 1.0, 300.0, 1.0, 1.0, 300.0, 300.0])
+    top = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass, [0, 0, 1.0], g=1.0)
+
+    def run():
+        with pytest.warns(liebody.InvariantWarning) as caught:
+            tr = liebody.integrate(top, q0=Q.exp([0.5, 0, 0]), L0=np.tile([0, 0, 10.0], (7, 1)),
+                                   dt=0.3, steps=200, method="splitting2")
+        return tr, [str(w.message) for w in caught if w.category is liebody.InvariantWarning]
+
+    tr, whole = run()
+    e = tr.kinetic_energy + tr.potential_energy
+    bad = np.flatnonzero(np.abs(e[:, -1] - e[:, 0]) > 0.01 * (tr.kinetic_energy[:, 0]
+                                                               + np.abs(tr.potential_energy[:, 0])))
+    assert list(bad) == [2, 5, 6]
+    assert whole == [f"splitting2: 3 of 7 bodies (e.g. body 2): the energy went from "
+                     f"{e[2, 0]:.6g} to {e[2, -1]:.6g}, more than 1% of its scale "
+                     f"{tr.kinetic_energy[2, 0] + abs(tr.potential_energy[2, 0]):.3g} (the "
+                     f"step may be too large for this scene, or the method does not keep "
+                     f"this invariant)"]
+    for chunk in (1, 2, 3):  # bodies 2, 5, 6 in one chunk, two or three
+        monkeypatch.setattr(_engine, "CHECK_CHUNK", chunk)
+        assert run()[1] == whole
