@@ -352,8 +352,7 @@ def _chunk_problems(traj: Trajectory, a: int, b: int) -> list[tuple[int, int, in
     caps = scene.capabilities
     q, L = traj.q[a:b], traj.L[a:b]
     ok = np.isfinite(q[:, -1]).all(axis=1) & np.isfinite(L[:, -1]).all(axis=1)
-    moments = np.asarray(scene.moments, dtype=float)
-    moments = np.broadcast_to(moments if moments.ndim == 1 else moments[a:b], (b - a, 3))
+    moments = np.broadcast_to(_chunk_rows(scene.moments, a, b), (b - a, 3))
     out = []
 
     def report(key, bad, words):
@@ -375,8 +374,7 @@ def _chunk_problems(traj: Trajectory, a: int, b: int) -> list[tuple[int, int, in
         report(2, ~(np.abs(g1 - g0) <= CASIMIR_TOL * g0),
                lambda i: f"|L| went from {g0[i]:.6g} to {g1[i]:.6g}, more than "
                          f"{CASIMIR_TOL:g} relative")
-    rotor = rotor_momentum(scene)  # (gyrostats)
-    rotor = np.broadcast_to(rotor if rotor.ndim == 1 else rotor[a:b], (b - a, 3))
+    rotor = np.broadcast_to(_chunk_rows(rotor_momentum(scene), a, b), (b - a, 3))  # (gyrostats)
     T0 = 0.5 * np.sum((L[:, 0] - rotor) ** 2 / moments, axis=1)
     T1 = 0.5 * np.sum((L[:, -1] - rotor) ** 2 / moments, axis=1)
     if (method.symplectic or method.keeps_energy) and caps.conservative:
@@ -403,10 +401,18 @@ def _chunk_problems(traj: Trajectory, a: int, b: int) -> list[tuple[int, int, in
     return out
 
 
+def _chunk_rows(value, a: int, b: int) -> np.ndarray:
+    """Bodies ``a .. b - 1``'s rows of a vector per body (``(N, 3)``), or the vector every
+    body shares (``(3,)``, or one row ``(1, 3)``: a batch of one broadcast to the bodies)."""
+    v = np.asarray(value, dtype=float)
+    return v if v.ndim == 1 or v.shape[0] == 1 else v[a:b]
+
+
 def _chunk_potential(scene, a: int, b: int, q: np.ndarray) -> np.ndarray:
-    """The potential of bodies ``a .. b - 1`` of an ensemble at orientations ``q``."""
+    """The potential of bodies ``a .. b - 1`` of an ensemble at orientations ``q`` (a
+    scene's batch of one stands for every body)."""
     shape = getattr(scene, "batch_shape", ())
-    if shape and (a, b) != (0, shape[0]):
+    if shape and shape[0] > 1 and (a, b) != (0, shape[0]):
         scene = scene.take(slice(a, b))
     return scene.potential(q)
 

@@ -504,3 +504,35 @@ def test_the_ensemble_check_counts_bodies_across_its_chunks(monkeypatch):
     for chunk in (1, 2, 3):  # bodies 2, 5, 6 in one chunk, two or three
         monkeypatch.setattr(_engine, "CHECK_CHUNK", chunk)
         assert run()[1] == whole
+
+
+def test_the_ensemble_check_in_chunks_reads_a_batch_of_one_as_every_bodys(monkeypatch):
+    """A scene whose parameters are a batch of one (inertia ``(1, 3)``, mass ``(1,)``)
+    broadcast to the ensemble's bodies is the parameters of every chunk (the check sliced
+    them per chunk: none for the second chunk, and it failed with a broadcasting error,
+    the trajectory returned unchecked). The words are those of one pass, and the bodies
+    named are those whose energy error, measured from the samples, passes 1 %."""
+    from liebody import _engine
+
+    top = liebody.HeavyTop(liebody.RigidBody.batch([[5.0, 5.0, 1.0]]), np.array([300.0]),
+                           [0, 0, 1.0], g=1.0)
+    spin = np.array([10.0, 60.0, 10.0, 60.0, 60.0, 10.0, 10.0])
+    L0 = np.stack([np.zeros(7), np.zeros(7), spin], axis=1)
+
+    def run():
+        with pytest.warns(liebody.InvariantWarning) as caught:
+            tr = liebody.integrate(top, q0=Q.exp([0.5, 0, 0]), L0=L0, dt=0.3, steps=200,
+                                   method="splitting2")
+        return tr, [str(w.message) for w in caught if w.category is liebody.InvariantWarning]
+
+    tr, whole = run()
+    e = tr.kinetic_energy + tr.potential_energy
+    scale = tr.kinetic_energy[:, 0] + np.abs(tr.potential_energy[:, 0])
+    bad = np.flatnonzero(np.abs(e[:, -1] - e[:, 0]) > 0.01 * scale)
+    assert list(bad) == [0, 2, 5, 6]
+    assert len(whole) == 1 and whole[0].startswith(
+        f"splitting2: 4 of 7 bodies (e.g. body 0): the energy went from {e[0, 0]:.6g} to "
+        f"{e[0, -1]:.6g}")
+    for chunk in (1, 2, 3):
+        monkeypatch.setattr(_engine, "CHECK_CHUNK", chunk)
+        assert run()[1] == whole
