@@ -227,10 +227,10 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
         every = max(save_every + 1, math.ceil(n_steps / fit))
         kept = n_steps // every + (1 if n_steps % every else 0) + 1
         what = "samples" if bodies == 1 else f"samples of {bodies:,} bodies"
-        if kept >= n_samples:  # already the fewest samples: no save_every helps
+        if fixed + 2 * per > avail:  # not even the fewest samples: no save_every helps
             raise ValueError(
-                f"{bodies:,} bodies need {n_samples * per / 1e9:.3g} GB for their "
-                f"{n_samples:,} samples (the initial and final states at least) and "
+                f"{bodies:,} bodies need {2 * per / 1e9:.3g} GB for their "
+                f"2 samples (the initial and final states at least) and "
                 f"{fixed / 1e9:.3g} GB for the run's other arrays, more than the "
                 f"{avail / 1e9:.3g} GB of memory available; run fewer bodies per call (or "
                 f"liebody.distributed)")

@@ -173,6 +173,30 @@ def test_the_check_counts_what_the_run_allocates_beyond_the_samples(monkeypatch)
                       save_every=None)  # shared: fits
 
 
+def test_a_refusal_suggests_no_saving_that_does_not_fit_either(monkeypatch):
+    """Where even the initial and final states of the bodies do not fit, no ``save_every``
+    helps, whatever the caller asked for: the refusal asks for fewer bodies per call (it
+    said so only to a caller already at 2 samples; one at ``save_every=1`` was told to
+    save every 10th step, or the final states only, which were then refused). With room
+    for the two, the sparser saving suggested fits."""
+    n = 200_000
+    per, fixed = _integrate._per_sample(n), n * _integrate.RUN_BYTES_PER_BODY
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    L0 = np.ones((n, 3))
+    monkeypatch.setattr(_integrate, "_available_memory", lambda: fixed + 3 * per // 2)
+    for save_every in (1, 4, 10, None):
+        with pytest.raises(ValueError, match=r"200,000 bodies need [0-9.]+ GB for their 2 "
+                                             r"samples .* run fewer bodies per call"):
+            liebody.integrate(scene, L0=L0, dt=0.01, steps=10, method="splitting2",
+                              save_every=save_every)
+    monkeypatch.setattr(_integrate, "_available_memory", lambda: fixed + 5 * per // 2)
+    with pytest.raises(ValueError, match=r"save_every = 10 keeps 2 samples"):
+        liebody.integrate(scene, L0=L0, dt=0.01, steps=10, method="splitting2")
+    tr = liebody.integrate(scene, L0=L0, dt=0.01, steps=10, method="splitting2",
+                           save_every=10)
+    assert tr.q.shape == (n, 2, 4)
+
+
 def test_the_available_memory_respects_an_address_space_limit():
     code = (
         "import os, resource\n"
