@@ -291,15 +291,26 @@ class Scene:
         unbatched parameters are shared. Used to split an ensemble into chunks."""
         import copy
 
+        # a parameter of one row in a batch of more bodies is every body's (broadcast):
+        # kept for a part of the batch, its row for one body
+        batch = self.batch_shape
+        many = bool(batch) and batch[0] > 1
+        single = np.ndim(idx) == 0 and not isinstance(idx, slice)
         out = copy.copy(self)
         for key in [k for k in vars(out) if k.startswith(_MEMO)]:
             del vars(out)[key]  # derived from the parameters that change here
         if self.body.shape:
-            object.__setattr__(out, "body", self.body[idx])
+            one_row = many and self.body.shape[0] == 1
+            if single or not one_row:
+                object.__setattr__(out, "body", self.body[0 if one_row else idx])
         for name, rank in self.per_body.items():
             value = getattr(self, name)
             if np.ndim(value) > rank:
-                part = np.asarray(value)[idx]
+                value = np.asarray(value)
+                one_row = many and value.shape[0] == 1
+                if one_row and not single:
+                    continue
+                part = value[0 if one_row else idx]
                 if np.ndim(part) == 0:  # one body by an integer index: a plain number
                     part = float(part)
                 else:

@@ -194,6 +194,42 @@ def test_a_scenes_memoised_model_follows_take():
         tops.torque_model().params[0, 0] = 1.0
 
 
+def test_take_keeps_a_parameter_of_one_row_as_every_bodys(monkeypatch):
+    """A parameter of one row in a batch of more bodies (a centre of mass ``(1, 3)``, an
+    inertia ``RigidBody.batch`` of one, beside a mass per body) broadcasts to every body,
+    and so to every part of the batch that ``take`` makes: it was sliced (no row for a
+    part past the first body, ``IndexError`` for one body past it), so a body's
+    trajectory could not be made and the ensemble check in chunks failed."""
+    from liebody import _engine
+
+    mass = np.array([1.0, 1.0, 300.0, 1.0, 300.0])
+    tops = [liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), mass,
+                             np.array([[0.0, 0.0, 1.0]]), g=1.0),
+            liebody.HeavyTop(liebody.RigidBody.batch([[5.0, 5.0, 1.0]]), mass,
+                             [0.0, 0.0, 1.0], g=1.0)]
+    for top in tops:
+        for idx, n in ((slice(2, 4), 2), (np.array([4, 1]), 2), (3, None)):
+            part = top.take(idx)
+            assert part.batch_shape == (() if n is None else (n,))
+            np.testing.assert_array_equal(part.weight_arm, top.weight_arm[idx])
+            np.testing.assert_array_equal(np.broadcast_to(part.moments, (n or 1, 3)),
+                                          np.broadcast_to(top.moments, (5, 3))[:n or 1])
+        L0 = np.tile([0.0, 0.0, 10.0], (5, 1))
+        with pytest.warns(liebody.InvariantWarning) as caught:
+            tr = liebody.integrate(top, q0=Q.exp([0.5, 0, 0]), L0=L0, dt=0.3, steps=200)
+        whole = [str(w.message) for w in caught]
+        assert len(whole) == 1 and whole[0].startswith("splitting2: 2 of 5 bodies (e.g. body 2)")
+        monkeypatch.setattr(_engine, "CHECK_CHUNK", 2)
+        with pytest.warns(liebody.InvariantWarning) as caught:
+            liebody.integrate(top, q0=Q.exp([0.5, 0, 0]), L0=L0, dt=0.3, steps=200)
+        assert [str(w.message) for w in caught] == whole
+        monkeypatch.undo()
+        one = tr.body(4)
+        assert one.scene.mass == 300.0 and one.scene.batch_shape == ()
+        np.testing.assert_array_equal(one.q, tr.q[4])
+        np.testing.assert_allclose(one.potential_energy, tr.potential_energy[4], rtol=1e-15)
+
+
 def test_pickled_scenes_leave_their_memos_behind():
     """A scene memoises what it derives from its parameters. A user torque's model holds
     the address of a callback compiled in this process: pickled (a Dask worker gets the
