@@ -288,11 +288,11 @@ class Scene:
 
     def take(self, idx) -> Scene:
         """The scene of bodies ``idx`` (a slice or an index array) of a batched scene;
-        unbatched parameters are shared. Used to split an ensemble into chunks."""
+        unbatched parameters are shared, and so is a parameter of one row in a batch of
+        more bodies (it broadcasts; an integer ``idx`` gets its row). Used to split an
+        ensemble into chunks."""
         import copy
 
-        # a parameter of one row in a batch of more bodies is every body's (broadcast):
-        # kept for a part of the batch, its row for one body
         batch = self.batch_shape
         many = bool(batch) and batch[0] > 1
         single = np.ndim(idx) == 0 and not isinstance(idx, slice)
