@@ -19,6 +19,7 @@ Example: a fixed-ordering Strang splitting, integrable at once by
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections import OrderedDict
@@ -766,7 +767,11 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         composition: the order conditions (the terms of degree 2 to ``order`` of the
         splitting's Baker-Campbell-Hausdorff logarithm vanish, ``check_splitting``),
         and a false one is refused; a sequence that is not palindromic cannot declare
-        more than 1. :func:`liebody.testing.observed_order` measures it.
+        more than 1. :func:`liebody.testing.observed_order` measures it. On a rotor
+        momentum that changes in time (:class:`~liebody.ReactionWheels`) the rotations
+        read it at the middle of their clock advance: a method of order 2 or more whose
+        ``T_k`` pieces do not read it at times mirrored about the middle of the step
+        (``FlowSequence.rotor_reads_mirrored``) is refused there.
     description, replace
         As for :func:`register`.
 
@@ -816,6 +821,8 @@ def register_splitting(name: str, flows, *, order: int | None = None,
             f"non-symmetric splitting of these flows is first order unless its fractions "
             f"satisfy further conditions); declare order=1, or measure the order with "
             f"liebody.testing.observed_order and register a Method yourself")
+    if int(order) >= 2:  # (checked on a rotor momentum that changes in time)
+        recipe = dataclasses.replace(recipe, symmetric=True)
     torque = frozenset({"time", "orientation"}) if "kick" in parts else frozenset()
     handles = Handles(torque, dissipation="damp" in parts)
     rotations = sum(1 for n, _, _ in recipe.flows if n in ("T1", "T2", "T3"))

@@ -1041,10 +1041,13 @@ class FlowSequence(Recipe):
     * ``"damp"`` — the double-bracket dissipation alone (:class:`~liebody.DampedBody`).
 
     :func:`liebody.register_splitting` checks the fractions (each part of the
-    Hamiltonian gets a whole step) and the clock (one step in all).
+    Hamiltonian gets a whole step) and the clock (one step in all). ``symmetric``: the
+    method declares an order of 2 or more (a symmetric step), which on a rotor momentum
+    that changes in time (reaction wheels) needs :attr:`rotor_reads_mirrored`.
     """
 
     flows: tuple
+    symmetric: bool = False
 
     def __post_init__(self) -> None:
         rows = []
@@ -1093,12 +1096,36 @@ class FlowSequence(Recipe):
         return all(abs(before[i] + before[last - i] - clock) <= 1e-14
                    for i, (name, _, _) in enumerate(self.flows) if name == "kick")
 
+    @property
+    def rotor_reads_mirrored(self) -> bool:
+        """The rotations read a rotor momentum that changes in time at mirrored times: a
+        ``T_k`` piece reads it at the middle of its clock advance (``c + clock / 2``, ``c``
+        the clock before it; exact for a momentum linear in time), and the pieces of
+        nonzero fraction, read backwards, are the same rotations at ``1 - c`` (the step
+        is symmetric about its middle). Without it such a step is first order there."""
+        reads, before = [], 0.0
+        for name, frac, clock in self.flows:
+            if name in ("T1", "T2", "T3") and frac != 0.0:
+                reads.append((name, frac, before + 0.5 * clock))
+            before += clock
+        return all(a[0] == b[0] and abs(a[1] - b[1]) <= 1e-15 * max(1.0, abs(a[1]))
+                   and abs(a[2] + b[2] - 1.0) <= 1e-14
+                   for a, b in zip(reads, reversed(reads), strict=True))
+
     keyed_by_state = True
 
     def keys(self, b, h):
         return b.symmetry + 1  # recurring rotations depend on the symmetry axis
 
     def stages(self, b, h, key):
+        if b.moving_rotor and self.symmetric and not self.rotor_reads_mirrored:
+            raise ValueError(
+                "its rotations read the rotor (wheel) momentum, which changes in time here, "
+                "at times that do not mirror about the middle of the step (a T_k piece "
+                "reads it at the middle of its clock advance), so on this scene it is "
+                "first order, not the order it declares; advance the clock symmetrically, "
+                "as in [('T1', 0.5), ('T2', 0.5), ('T3', 1.0, 1.0), ('T2', 0.5), "
+                "('T1', 0.5)], or declare order=1")
         sym = int(key) - 1
         inv = 1.0 / b.moments
         torque_free = not b.capabilities.torque
@@ -1115,8 +1142,10 @@ class FlowSequence(Recipe):
                 b.require_rigid("the exact (elliptic) free flow")
                 out.append(Stage(S.EXACT, frac, clock, moments=b.moments))
             elif name == "kick":
-                if not torque_free:  # (a free body has nothing to kick, nor a clock)
+                if not torque_free:
                     out.append(Stage(S.KICK, frac, clock, torque=b.torque_code))
+                elif clock != 0.0:  # nothing to kick; the clock still advances (the
+                    out.append(sphere(0.0, 0.0, clock=clock))  # rotor's read times)
             else:
                 out.append(Stage(S.DAMP, frac, clock, moments=b.moments, eps=b.eps))
         return out, {"flows": self.flows}

@@ -188,7 +188,9 @@ class ReactionWheels(Scene):
     ``l(t) = A h(t)``: the axis splittings (``splitting2``, ``no_squish``, ``splitting4/6/8``,
     user splittings of ``T1, T2, T3``) integrate it with exact sub-flows, rotations about
     the body axes, so the spatial angular momentum of body and wheels is kept to
-    round-off by construction, whatever the step, and the methods keep their order. The
+    round-off by construction, whatever the step, and the methods keep their order (a
+    rotation reads ``l`` at the middle of its clock advance, so a user splitting of order
+    2 or more must advance the clock symmetrically, or it is refused here). The
     baselines (``euler``, ``rk4``, ``lie_euler``, ``rkmk4``) read ``l(t)`` at their stage
     times; the rigid body's own flows (``exact``, ``sr2``, ``rattle``, ``dmv*``) are
     refused with a message naming these.

@@ -391,3 +391,65 @@ def test_kicks_are_merged_for_the_judgement_only_where_the_clock_stands_still(re
     for m, p in ((m_split, 1), (m_joined, 2)):
         found = _order_on_a_torque_of_the_time(m.name)
         assert found.rounded == p, (m.name, found)
+
+
+def _driven_wheels():
+    """Three wheels driven at constant motor torques: the rotor momentum is linear in
+    time, so the rotations must read it at mirrored times to keep a symmetric order."""
+    scene = liebody.ReactionWheels(liebody.RigidBody([1.0, 2.0, 3.0]), axes=np.eye(3),
+                                   inertia=0.1, momentum=[0.3, -0.2, 0.1])
+    return scene, np.array([1.0, 0.5, -0.7]), np.array([0.4, -0.3, 0.5])
+
+
+def _wheels_order(method: str):
+    scene, L0, u = _driven_wheels()
+    t_end = 2.0
+    ref = liebody.integrate(scene, L0=L0, dt=t_end / 4096, steps=4096, method="splitting8",
+                            save_every=None, controls=u)
+
+    def error(n):
+        tr = liebody.integrate(scene, L0=L0, dt=t_end / n, steps=n, method=method,
+                               save_every=None, controls=u)
+        return testing.state_error(tr.q[-1], tr.L[-1], ref.q[-1], ref.L[-1])
+
+    return testing.observed_order(error=error, t_end=t_end, h_max=0.1)
+
+
+def test_a_symmetric_splitting_reads_moving_wheels_at_mirrored_times_or_is_refused(
+        registered):
+    """A T_k piece reads a rotor momentum that changes in time at the middle of its clock
+    advance. Strang of T1, T2, T3 without a clock reads it at the step's start every time:
+    order 2 on a rigid body, first order on driven wheels (measured 1.00 before, declared
+    2): refused there; with the clock on T3 it reads at mirrored times and is order 2."""
+    bare = liebody.register_splitting("user_t_strang", [
+        ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5), ("T1", 0.5)])
+    clocked = liebody.register_splitting("user_t_strang_clocked", [
+        ("T1", 0.5), ("T2", 0.5), ("T3", 1.0, 1.0), ("T2", 0.5), ("T1", 0.5)])
+    first = liebody.register_splitting("user_t_strang_first", [
+        ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5), ("T1", 0.5)], order=1)
+    registered.extend([bare.name, clocked.name, first.name])
+    assert bare.order == clocked.order == 2
+    scene, L0, u = _driven_wheels()
+    with pytest.raises(ValueError, match=r"user_t_strang: .*do not mirror"):
+        liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method=bare.name, controls=u)
+    assert _wheels_order(clocked.name).rounded == 2
+    assert _wheels_order(first.name).rounded == 1  # declared first order: runs
+    assert testing.observed_order(bare, "asym").rounded == 2  # (a rigid body: no clock read)
+
+
+def test_a_kick_on_a_torque_free_scene_still_advances_the_clock(registered):
+    """Driven wheels without a torque: the kicks do nothing, but their clock advance
+    moves when the rotations read the wheels' momentum (it was dropped with them); the
+    sequence runs as the same one with the advance on a piece of zero length."""
+    with_kick = liebody.register_splitting("user_kick_clock", [
+        ("kick", 0.5, 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5),
+        ("T1", 0.5, 0.5), ("kick", 0.5)], order=1)
+    without = liebody.register_splitting("user_zero_clock", [
+        ("T2", 0.0, 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5),
+        ("T1", 0.5, 0.5)], order=1)
+    registered.extend([with_kick.name, without.name])
+    scene, L0, u = _driven_wheels()
+    a, b = (liebody.integrate(scene, L0=L0, dt=0.05, steps=40, method=m.name, controls=u)
+            for m in (with_kick, without))
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.L, b.L)
