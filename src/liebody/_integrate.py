@@ -71,8 +71,9 @@ SAMPLE_BYTES = 64
 #: the largest step count (float64 step indices stay exact below 2^53)
 MAX_STEPS = 2**53
 #: bytes an ensemble's run allocates per body beyond its samples and its per-body stage
-#: parameters: state, records, diagnostics, the plan's set-up (measured 610-811 B with
-#: diagnostics for splitting2/8, rattle and dmv8; ``tests/faults/test_memory.py``)
+#: parameters: state, records, diagnostics, the plan's set-up (measured 225-589 B without
+#: diagnostics, 353-754 B with, on free bodies, tops, gyrostats, user torques and the
+#: gravity gradient; ``tests/faults/test_memory.py``): an upper bound with a margin
 RUN_BYTES_PER_BODY = 1024
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
@@ -470,7 +471,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         _check_torque(model, q_init[0], m_init[0], _first_row(u), t0, ensemble=True,
                       orientation_only=promise)
         t = _sample_times(n_steps, save_every, dt, n_bodies,
-                          RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m_init, dt))
+                          RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m_init, dt,
+                                                                     u))
         run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
                           progress, threads, diagnostics, u, t0, simd)
     return run.sampled() if method.sampled else run.stepped()
@@ -545,14 +547,16 @@ def _batch_shape_of(scene) -> tuple[int, ...]:
 _BATCH_SHAPE = _MEMO + "batch_shape"
 
 
-def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float) -> int:
+def _stage_bytes_per_body(scene, method, m0: np.ndarray, dt: float, u=None) -> int:
     """Bytes of stage parameters an ensemble's plan keeps per body: none when every body
-    shares them (a scene without per-body parameters), else its distinct stage rows (from
-    the plan of body 0)."""
-    if method.sampled or not scene_batch_shape(scene):
+    shares them (a scene without per-body parameters or controls ``u`` per body), else its
+    distinct stage rows (from the plan of body 0; another group's plan may hold a row
+    more, which :data:`RUN_BYTES_PER_BODY`'s margin covers)."""
+    per_body_u = u is not None and u.ndim == 2
+    if method.sampled or not (scene_batch_shape(scene) or per_body_u):
         return 0
     try:
-        plan = method.plan(scene.take(0), m0[0], dt)
+        plan = method.plan(scene.take(0) if scene_batch_shape(scene) else scene, m0[0], dt)
     except ValueError:
         return 0  # refused: the run says why
     return plan.params.shape[1] * S.N_PARAMS * 8

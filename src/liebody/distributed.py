@@ -186,7 +186,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     # the local call's memory check (its words too): the samples and each body's other
     # arrays (gathered, only the samples come back to this process)
     t = (_sample_times(n_steps, save_every, dt, n,
-                       RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m, dt))
+                       RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m, dt, u))
          if gather else _sample_times(n_steps, save_every, dt, 1))
     times = t if t0 == 0.0 else t0 + t
     groups = None

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import tracemalloc
 
+import numba
 import numpy as np
 import pytest
 
@@ -208,3 +209,28 @@ def test_the_available_memory_respects_an_address_space_limit():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert 0 < int(out) <= 300_000_000
+
+
+@numba.njit
+def _commanded(t, q, L, u):
+    return u.copy()
+
+
+def test_the_check_counts_the_rows_that_controls_per_body_make(monkeypatch):
+    """Controls given per body are written into every distinct stage row of every body:
+    the rows are per body then, though the scene's parameters are shared, and the check
+    counts them (it counted none)."""
+    monkeypatch.setattr(_integrate, "_available_memory", lambda: 100_000_000)
+    scene = liebody.ControlledBody(liebody.RigidBody([1.0, 2.0, 3.0]), _commanded,
+                                   controls=3)
+    n = 200_000
+    L0 = np.ones((n, 3))
+    with pytest.raises(ValueError, match=r"200,000 bodies need 1,024 B each"):
+        liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method="splitting2",
+                          save_every=None, controls=np.zeros(3))
+    with pytest.raises(ValueError, match=r"200,000 bodies need [0-9,]+ B each") as info:
+        liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method="splitting2",
+                          save_every=None, controls=np.zeros((n, 3)))
+    need = int(re.search(r"need ([0-9,]+) B each", str(info.value))[1].replace(",", ""))
+    rows = liebody.methods()["splitting2"].plans(scene, L0[:2], 0.01)[0][1].params.shape[1]
+    assert need == _integrate.RUN_BYTES_PER_BODY + rows * S.N_PARAMS * 8
