@@ -539,7 +539,8 @@ def test_the_block_loops_compile_to_packed_instructions():
     rows = (B.W0, B.X0, B.Y0, B.Z0)
     packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
     for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
-                     (B._AX1F, (buf, par, 0, 3, 0.1)), (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
+                     (B._AX1F, (buf, par, 0, 3, 0.1)), (B._RC2C, (buf, par, 0, 3, 0.1)),
+                     (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
                      (B._SPHERE_GENERAL, (buf, par, 0, 3, 0.1)),
                      (B._kick_block, (buf, par, 0, 3, 0.1)), (B._dmv_block, (buf, p, 3, 0.1)),
                      (B._diagnose_block, (buf, 3, mc, 0.0)),
@@ -551,6 +552,52 @@ def test_the_block_loops_compile_to_packed_instructions():
         fresh(*args)
         asm = fresh.inspect_asm(fresh.signatures[0])
         assert len(packed.findall(asm)) >= 8, fn.py_func.__qualname__
+
+
+@pytest.mark.kernel
+def test_a_recurring_turn_is_constant_only_where_no_other_stage_changes_its_component():
+    """A symmetric top's spin rotation (AXIS_RECURRING about its axis) keeps its angle
+    through a chunk when the other stages keep ``m_3``: sphere rotations, rotations about
+    the same axis, gravity kicks with the weight arm on the axis in every body of the
+    block. Not with an arm off the axis in one body, another model's kicks or a rotation
+    about another axis."""
+    from liebody._kernels import batch as B
+
+    kinds = np.array([S.KICK, S.SPHERE, S.AXIS_RECURRING, S.KICK])
+    axes = np.array([0, 0, 2, 0])
+    par = np.zeros((4, B.N_SLOTS, B.BLOCK))
+    par[0, 2, :] = par[3, 2, :] = 20.0  # the weight arm (0, 0, 20) of every body
+    assert B._keeps_component(kinds, axes, par, 5, S.TORQUE_GRAVITY, 2)
+    assert not B._keeps_component(kinds, axes, par, 5, S.TORQUE_GRAVITY_GRADIENT, 2)
+    par[3, 0, 4] = 1e-3  # body 4's arm off the axis
+    assert not B._keeps_component(kinds, axes, par, 5, S.TORQUE_GRAVITY, 2)
+    assert B._keeps_component(kinds, axes, par, 4, S.TORQUE_GRAVITY, 2)  # (not in block)
+    kinds[1], axes[1] = S.AXIS, 1
+    assert not B._keeps_component(kinds, axes, par, 4, S.TORQUE_GRAVITY, 2)
+    axes[1] = 2
+    assert B._keeps_component(kinds, axes, par, 4, S.TORQUE_GRAVITY, 2)
+
+
+@pytest.mark.kernel
+def test_a_turn_computed_once_per_chunk_gives_the_same_numbers():
+    """Two blocks of the same tilted fast tops, one of which holds a top whose arm is a
+    little off its axis: the spin rotation's turn is computed once per chunk in the
+    first block and at every step in the second, and each top's samples are the same,
+    bit for bit (a body's numbers do not depend on the other bodies of its block)."""
+    from liebody._kernels import batch as B
+
+    n = B.BLOCK
+    q0, L0 = bodies(n, [0.0, 0.0, 50.0], seed=3, q_spread=0.05)
+    q0 = quaternion.multiply(quaternion.exp([0.05, 0.0, 0.0]), q0)
+    cm = np.tile([0.0, 0.0, 1.0], (2 * n, 1))
+    cm[-1, 0] = 1e-3
+    tops = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0, cm, g=1.0)
+    tr = liebody.integrate(tops, q0=np.r_[q0, q0], L0=np.r_[L0, L0], dt=1e-3, steps=300,
+                           save_every=100, method="splitting2", simd=True, threads=1)
+    assert tr.info["simd"] is True and tr.info["free_flow"] == "symmetric"
+    np.testing.assert_array_equal(tr.q[:n - 1], tr.q[n:-1])
+    np.testing.assert_array_equal(tr.L[:n - 1], tr.L[n:-1])
+    assert not np.array_equal(tr.q[n - 1], tr.q[-1])  # (the off-axis top moves apart)
 
 
 # ------------------------------------------------------------------ long horizons

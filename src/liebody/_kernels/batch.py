@@ -191,8 +191,10 @@ FAST_LIMIT = 0.78
 #: a recurring rotation (AXIS_RECURRING, SPHERE) whose half angle may reach this puts ``q``
 #: back on the unit sphere after it (``_project_block``; ``flows.LARGE_INCREMENT``)
 PROJECT_HALF = math.sqrt(LARGE_INCREMENT)
-#: stage flags of a chunk (``_fast_flags``)
-FAST, PROJECT = 1, 2
+#: stage flags of a chunk (``_fast_flags``); CONSTANT: a recurring rotation whose angle is
+#: the same at every step of the chunk (no other stage changes its ``m_k``), its sine and
+#: cosine computed once at the chunk's start (``_constant_turns``)
+FAST, PROJECT, CONSTANT = 1, 2, 4
 #: the fewest bodies (of a chunk) for which the SIMD drivers beat the scalar ones: one
 #: body is 10 % slower (DMV: 70 %), two break even for DMV, three win for every family
 #: (measured on AVX-512: free splitting2 43 against 74 ns/body-step at 3 bodies, 8 ns
@@ -264,7 +266,7 @@ def simd_supports(plan, torque_code) -> bool:
 
 
 # ------------------------------------------------------------------ rotation kernels
-def _axis_kernel(axis: int, general: bool, recurring: bool):
+def _axis_kernel(axis: int, general: bool, recurring: bool, constant: bool = False):
     """The loop over a block of the exact flow of ``rate m_k^2 / 2`` about axis ``k``, in
     increment form (:func:`~liebody._kernels.flows.axis_flow_recurring`), for every axis
     rotation, recurring or not: near a steady rotation the plain form's ``cos``, rounded
@@ -273,7 +275,8 @@ def _axis_kernel(axis: int, general: bool, recurring: bool):
     (``m_k`` constant), so the polynomial pair is normalised (its norm error, ``eps
     sin^2``, would recur too); otherwise the cheaper pair as it comes. The rows are
     compile-time offsets: ``k`` and the two axes after it in cyclic order (the formulas
-    of ``qaxis_rotation`` for every axis).
+    of ``qaxis_rotation`` for every axis). ``constant``: the angle's sine and cosine are
+    read from ``par[j, 1..4]`` (:func:`_constant_turns`: the same numbers).
     """
     ms = (M10, M20, M30)
     qs = (X0, Y0, Z0)
@@ -281,15 +284,18 @@ def _axis_kernel(axis: int, general: bool, recurring: bool):
     OP, OU, OV = qs[axis], qs[(axis + 1) % 3], qs[(axis + 2) % 3]
     trig = sincos if general else sincos_small if recurring else sincos_small_raw
     tag = (f"axis{axis}_{'recurring' if recurring else 'increment'}_"
-           f"{'general' if general else 'small'}")
+           f"{'general' if general else 'small'}{'_constant' if constant else ''}")
 
     @jit(tag=tag)
     def kernel(buf, par, j, nb, tau):
         ht = 0.5 * tau
         for i in range(nb):
-            s2, c2, cm2 = trig(ht * par[j, 0, i] * buf[OA + i])
-            cm = -2.0 * s2 * s2  # cos(2 half) - 1
-            s = 2.0 * s2 * c2
+            if constant:
+                s2, cm2, s, cm = par[j, 1, i], par[j, 2, i], par[j, 3, i], par[j, 4, i]
+            else:
+                s2, c2, cm2 = trig(ht * par[j, 0, i] * buf[OA + i])
+                cm = -2.0 * s2 * s2  # cos(2 half) - 1
+                s = 2.0 * s2 * c2
             mb = buf[OB + i]
             mc = buf[OC + i]
             buf[OB + i] = mb + fma(cm, mb, s * mc)
@@ -309,7 +315,9 @@ def _axis_kernel(axis: int, general: bool, recurring: bool):
 def _sphere_kernel(general: bool):
     """The loop over a block of the sphere flow ``q <- q exp(tau rate m)`` in increment
     form (:func:`~liebody._kernels.flows.sphere_flow`): ``(cos(|r|/2) - 1, v)`` with
-    ``v = sin(|r|/2) r / |r|``, normalised by one Newton step."""
+    ``v = sin(|r|/2) r / |r|``, normalised by one Newton step. ``sin(x) / x`` and
+    ``cos x - 1`` are polynomials in ``x^2 = |r|^2 / 4``: no square root below a quarter
+    turn (it was a tenth of a heavy top's SIMD step)."""
 
     @jit(tag="general" if general else "small")
     def kernel(buf, par, j, nb, tau):
@@ -318,13 +326,13 @@ def _sphere_kernel(general: bool):
             r1 = a * buf[M10 + i]
             r2 = a * buf[M20 + i]
             r3 = a * buf[M30 + i]
-            nr = math.sqrt(fma(r1, r1, fma(r2, r2, r3 * r3)))
-            x = 0.5 * nr
-            if general:
-                k, r = _reduce(x)
-            else:
-                k, r = 0.0, x
-            z = r * r
+            nr2 = fma(r1, r1, fma(r2, r2, r3 * r3))
+            if general:  # (below a quarter turn, the fast variant's numbers: k = 0)
+                nr = math.sqrt(nr2)
+                k, r = _reduce(0.5 * nr)
+                z = r * r if k != 0.0 else 0.25 * nr2
+            else:  # the polynomials in z = (|r|/2)^2 need no square root
+                k, z = 0.0, 0.25 * nr2
             sp = z * _sin_poly(z)
             cm = z * fma(z, _cos_poly(z), -0.5)
             f = 0.5 * (1.0 + sp)  # sin(x) / |r| = sin(x) / (2 x)
@@ -354,6 +362,7 @@ _RECURRING_FAST = tuple(_axis_kernel(a, False, True) for a in range(3))
 _AX0F, _AX1F, _AX2F = _AXIS_FAST
 _AX0G, _AX1G, _AX2G = _AXIS_GENERAL
 _RC0F, _RC1F, _RC2F = _RECURRING_FAST
+_RC0C, _RC1C, _RC2C = (_axis_kernel(a, False, True, True) for a in range(3))
 _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
 
@@ -643,7 +652,14 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
     if (family == F_SPLITTING or family == F_KICKED) and kind == KICK:
         _kick_block(buf, par, j, nb, tau)
         return
-    if kind == AXIS_RECURRING and fast & FAST:
+    if kind == AXIS_RECURRING and fast & CONSTANT:
+        if axis == 0:
+            _RC0C(buf, par, j, nb, tau)
+        elif axis == 1:
+            _RC1C(buf, par, j, nb, tau)
+        else:
+            _RC2C(buf, par, j, nb, tau)
+    elif kind == AXIS_RECURRING and fast & FAST:
         if axis == 0:
             _RC0F(buf, par, j, nb, tau)
         elif axis == 1:
@@ -725,7 +741,40 @@ def _copy_rows(buf, src, dst, rows, nb):
 
 
 @jit
-def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
+def _constant_turns(buf, par, j, nb, tau, axis):
+    """The sine and cosine of a recurring rotation's turn at the chunk's start, for its
+    CONSTANT kernel: ``(s2, cm2, s, cm)`` into ``par[j, 1..4]``, the numbers the
+    recurring kernel computes at every step (the same expressions)."""
+    ht = 0.5 * tau
+    oa = M10 if axis == 0 else (M20 if axis == 1 else M30)
+    for i in range(nb):
+        s2, c2, cm2 = sincos_small(ht * par[j, 0, i] * buf[oa + i])
+        par[j, 1, i], par[j, 2, i] = s2, cm2
+        par[j, 3, i], par[j, 4, i] = 2.0 * s2 * c2, -2.0 * s2 * s2
+
+
+@jit
+def _keeps_component(kinds, axes, par, nb, mcode, j):
+    """Whether every stage but ``j`` keeps ``m_k``, ``k = axes[j]``, exactly: sphere
+    rotations, rotations about ``k``, and uniform-gravity kicks whose weight arm has no
+    component off ``k`` in any body of the block (their torque's ``k`` component is
+    ``g_i c_j - g_j c_i = 0``)."""
+    k = axes[j]
+    for i in range(kinds.shape[0]):
+        if i == j or kinds[i] == SPHERE:
+            continue
+        if (kinds[i] == AXIS or kinds[i] == AXIS_RECURRING) and axes[i] == k:
+            continue
+        if kinds[i] != KICK or mcode != TORQUE_GRAVITY:
+            return False
+        for b in range(nb):
+            if par[i, (k + 1) % 3, b] != 0.0 or par[i, (k + 2) % 3, b] != 0.0:
+                return False
+    return True
+
+
+@jit
+def _fast_flags(kinds, axes, coefs, par, merge_ends, h, buf, nb, alive, steps, fast, mcode):
     """Per stage, whether every half angle stays below :data:`FAST_LIMIT` for ``steps``
     steps: ``|half| <= |tau| |rate| |m| / 2`` with ``|m|`` kept by the rotations and
     grown by at most ``sum |tau_kick| B |q|^2`` per step by the kicks, ``B`` the model's
@@ -764,6 +813,13 @@ def _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, steps, fast):
         fast[j] = FAST if half <= FAST_LIMIT else 0
         if (kinds[j] == AXIS_RECURRING or kinds[j] == SPHERE) and not half < PROJECT_HALF:
             fast[j] |= PROJECT
+        # a recurring rotation inside the step (an end stage's time changes when merged)
+        # whose angle no other stage changes: its turn computed once for the chunk
+        if (kinds[j] == AXIS_RECURRING and fast[j] & FAST
+                and not (merge_ends and ns > 1 and (j == 0 or j == last))
+                and _keeps_component(kinds, axes, par, nb, mcode, j)):
+            fast[j] |= CONSTANT
+            _constant_turns(buf, par, j, nb, coefs[j] * h, axes[j])
 
 
 # ------------------------------------------------------------------ the drivers
@@ -851,7 +907,8 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, slots, merge_end
                 buf[M10 + b], buf[M20 + b], buf[M30 + b] = 0.0, 0.0, 0.0
             buf[FAIL0 + b] = 0.0
         if family != F_DMV and family != F_DMV_FREE:
-            _fast_flags(kinds, coefs, par, merge_ends, h, buf, nb, alive, t, fast)
+            _fast_flags(kinds, axes, coefs, par, merge_ends, h, buf, nb, alive, t, fast,
+                        mcode)
         _copy_rows(buf, R_W, R_CK, 7, nb)
         if diag:
             _copy_rows(buf, R_D, R_DCK, 3, nb)
