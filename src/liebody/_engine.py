@@ -44,6 +44,12 @@ REASONS = {S.STATUS_NONFINITE: "non-finite state",
            S.STATUS_TORQUE: "torque failed"}
 
 
+#: where both argument lists (:func:`one_body_args`, :func:`batch_args`) hold the clock and
+#: the slice: the run's start time, the steps done before the call, the steps to do, the
+#: save interval and whether the call is the run's last (the kernels' own parameters)
+T0, STEP0, N_STEPS, SAVE_EVERY, FINAL = 8, 9, 10, 11, 12
+
+
 def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,
                   ctl, q_out, m_out, torque_addr, dref, dmax) -> tuple:
     """The argument list of a one-body driver (``driver.RUNNERS``), in its order: the

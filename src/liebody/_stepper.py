@@ -28,10 +28,9 @@ import warnings
 import numpy as np
 
 from liebody import _methods
+from liebody._engine import FINAL, N_STEPS, STEP0, T0, batch_args, groups_info, one_body_args
 from liebody._engine import entry_point as _entry_point
-from liebody._engine import groups_info
 from liebody._kernels import stages as S
-from liebody._plan import body_rows
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import ConvergenceError, IntegrationError, IntegrationInterrupted
@@ -46,9 +45,6 @@ _SLICE_SECONDS = 0.2
 _FIRST_WORK = 64
 #: a slice is at most this many times the previous one (the first ones are noisy)
 _GROWTH = 16
-#: where the one-body driver's arguments (``_engine.one_body_args``) hold the start time,
-#: the steps done before the call and the steps to do
-_T0, _STEP0, _N_STEPS = 8, 9, 10
 
 
 def _join(pool) -> None:
@@ -257,18 +253,18 @@ class Stepper:
             self.info = dict(plan.info)  # its own (the plan is cached and shared)
             self._pu = params[:, S.P_U0:S.P_U0 + max(1, self._scene.controls)]
             self._ctl = np.zeros(2, dtype=np.int64)
-            self._head = (plan.kinds, plan.axes, plan.coefs, plan.clock, params, plan.slots,
-                          bool(plan.merge_ends), self._dt)
-            self._tail = (True, self._state, self._ctl, np.empty((1, 4)), np.empty((1, 3)),
-                          self._model.address, plan.model[0], plan.model_shared,
-                          np.zeros(S.DREF_WIDTH), np.zeros(3), plan.token)
+            args = list(one_body_args(plan, params, bool(plan.merge_ends), self._dt, self._t0,
+                                      0.0, 0, 1, True, self._state, self._ctl,
+                                      np.empty((1, 4)), np.empty((1, 3)), self._model.address,
+                                      np.zeros(S.DREF_WIDTH), np.zeros(3)))
+            # (the clock and the slice go between, per call; ``final`` leads the tail)
+            self._head, self._tail = tuple(args[:T0]), tuple(args[FINAL:])
             runner = RUNNERS[plan.family]
             self._ctl[:] = (1, 0)
-            args = [*self._head, self._t0, 0.0, 0, 1, *self._tail]
             runner(*args)  # compiles on first use; no step
             self._call = _entry_point(runner, args)
             # one step: save_every = 1 leaves ctl at (1, 0), as the next step needs it
-            args[_N_STEPS] = 1
+            args[N_STEPS] = 1
             self._args = args
             self._fast = True
             return
@@ -291,15 +287,13 @@ class Stepper:
     def _chunk(self, g: dict, c: slice) -> dict:
         """The driver's arguments for the bodies ``c`` of group ``g``, but for the clock
         and the slice (``t0, step0, n_steps, save_every, final``): views, built once."""
-        p = g["plan"]
+        args = batch_args(g["plan"], g["params"], g["merge"], self._dt, self._t0, 0.0, 0, 1,
+                          False, g["state"][c], g["ctl"][c], g["q"][c], g["m"][c],
+                          g["saved"][c], g["done"][c], g["status"][c],
+                          self._model.driver_address(g["simd"]), c, g["dref"][c],
+                          g["dmax"][c])
         return {"g": g, "c": c, "fn": g["runner"], "resolved": False,
-                "head": (p.kinds, p.axes, p.coefs, p.clock, body_rows(g["params"], c),
-                         p.slots, g["merge"], self._dt),
-                "tail": (g["state"][c], g["ctl"][c], g["q"][c], g["m"][c], g["saved"][c],
-                         g["done"][c], g["status"][c],
-                         self._model.driver_address(g["simd"]),
-                         p.model_rows(c), p.model_shared, g["dref"][c], g["dmax"][c],
-                         p.token)}
+                "head": args[:T0], "tail": args[FINAL + 1:]}
 
     def _group(self, idx, plan, params, runner, simd: bool) -> dict:
         """The arrays of a group of bodies that share a plan: views of the stepper's
@@ -345,7 +339,7 @@ class Stepper:
         try:
             if n.__class__ is int and n == 1 and self._fast:  # the control loop
                 args, ctl = self._args, self._ctl
-                args[_STEP0] = self._k
+                args[STEP0] = self._k
                 ctl[0] = 2  # a good step leaves 1 (save_every): tells whether it ran
                 try:
                     status = self._call(*args)[2]
@@ -755,7 +749,7 @@ class Stepper:
             self._t0 = t0
             self._k = 0.0
             if self._fast:
-                self._args[_T0] = self._t0
+                self._args[T0] = self._t0
 
     def _clock(self, done: int) -> float:
         """The time after ``done`` more steps."""

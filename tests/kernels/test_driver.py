@@ -190,3 +190,20 @@ def test_the_generated_batch_drivers_are_fresh():
     with mock.patch.object(batch_gen, "FAMILIES", fake):
         text = batch_gen.source()
     assert "def batch_family99(" in text and "def batch_family99_diag(" in text
+
+
+def test_the_argument_lists_hold_the_clock_where_the_drivers_take_it():
+    """``_engine.one_body_args`` and ``batch_args`` build the drivers' arguments in one
+    place; the Stepper and the runs write the clock and the slice at ``_engine.T0 ..
+    FINAL``: those are the drivers' own parameters there (one-body, scalar batch, SIMD)."""
+    import inspect
+
+    from liebody import _engine
+    from liebody._kernels import batch, batch_drivers, driver
+
+    names = ("t0", "step0", "n_steps", "save_every", "final")
+    where = (_engine.T0, _engine.STEP0, _engine.N_STEPS, _engine.SAVE_EVERY, _engine.FINAL)
+    for runner in (driver.RUNNERS[S.F_AXES], batch_drivers.BATCH_RUNNERS[S.F_AXES],
+                   batch.SIMD_RUNNERS[(S.F_AXES, False)]):
+        params = list(inspect.signature(runner.py_func).parameters)
+        assert [params[i] for i in where] == list(names), params

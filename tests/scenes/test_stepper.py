@@ -25,7 +25,7 @@ import pytest
 from numba import njit
 
 import liebody
-from liebody import _stepper
+from liebody import _engine, _stepper
 from liebody import quaternion as Q
 from liebody._kernels import batch
 from support import interrupt_child
@@ -198,7 +198,7 @@ def test_slices_change_no_bit(case, monkeypatch):
         inner = cut._call
 
         def counted(*args):
-            calls.append(args[_stepper._N_STEPS])
+            calls.append(args[_engine.N_STEPS])
             return inner(*args)
 
         cut._call = counted
@@ -228,7 +228,7 @@ def test_slices_grow_with_the_measured_rate():
     inner = s._call
 
     def counted(*args):
-        calls.append(args[_stepper._N_STEPS])
+        calls.append(args[_engine.N_STEPS])
         return inner(*args)
 
     s._call = counted
