@@ -266,6 +266,18 @@ def simd_supports(plan, torque_code) -> bool:
 
 
 # ------------------------------------------------------------------ rotation kernels
+@jit(inline="always")
+def _sincos_raw(x):
+    """:func:`~liebody._kernels.trig.sincos` for the general rigid axis turn, but
+    :func:`~liebody._kernels.trig.sincos_small_raw`'s pair where ``|x| <= FAST_LIMIT``:
+    a body's turn then has the fast kernel's numbers whatever the other bodies of its
+    block turn (the normalised pair differs from the raw one in the last bit)."""
+    s, c, cm = sincos(x)
+    rs, rc, rcm = sincos_small_raw(x)
+    small = abs(x) <= FAST_LIMIT
+    return (rs if small else s), (rc if small else c), (rcm if small else cm)
+
+
 def _axis_kernel(axis: int, general: bool, recurring: bool, constant: bool = False):
     """The loop over a block of the exact flow of ``rate m_k^2 / 2`` about axis ``k``, in
     increment form (:func:`~liebody._kernels.flows.axis_flow_recurring`), for every axis
@@ -282,7 +294,8 @@ def _axis_kernel(axis: int, general: bool, recurring: bool, constant: bool = Fal
     qs = (X0, Y0, Z0)
     OA, OB, OC = ms[axis], ms[(axis + 1) % 3], ms[(axis + 2) % 3]
     OP, OU, OV = qs[axis], qs[(axis + 1) % 3], qs[(axis + 2) % 3]
-    trig = sincos if general else sincos_small if recurring else sincos_small_raw
+    trig = (sincos if recurring else _sincos_raw) if general else \
+        sincos_small if recurring else sincos_small_raw
     tag = (f"axis{axis}_{'recurring' if recurring else 'increment'}_"
            f"{'general' if general else 'small'}{'_constant' if constant else ''}")
 
