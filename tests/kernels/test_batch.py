@@ -621,6 +621,26 @@ def test_a_rigid_axis_turn_does_not_depend_on_a_large_turn_in_its_block(method):
     np.testing.assert_array_equal(tr.L[:n - 1], tr.L[n:-1])
 
 
+
+def test_a_recurring_turn_does_not_depend_on_a_large_turn_in_its_block():
+    """Two blocks of the same tops, the second with one top spinning so fast that its
+    block takes the general kernels: the recurring spin rotation's general kernel keeps
+    the normalised pair of the fast one, and the other tops' samples are the same, bit
+    for bit (they are not if it takes the rigid turn's raw pair)."""
+    from liebody._kernels import batch as B
+
+    n = B.BLOCK
+    q0, L0 = bodies(n, [0.3, -0.2, 50.0], seed=5, q_spread=0.05)
+    L0b = L0.copy()
+    L0b[-1] = [0.0, 0.0, 2000.0]
+    tops = liebody.HeavyTop(liebody.RigidBody([5.0, 5.0, 1.0]), 20.0, [0.0, 0.0, 1.0], g=1.0)
+    tr = liebody.integrate(tops, q0=np.r_[q0, q0], L0=np.r_[L0, L0b], dt=1e-3, steps=150,
+                           save_every=50, method="splitting2", simd=True, threads=1)
+    assert tr.info["simd"] is True
+    np.testing.assert_array_equal(tr.q[:n - 1], tr.q[n:-1])
+    np.testing.assert_array_equal(tr.L[:n - 1], tr.L[n:-1])
+
+
 # ------------------------------------------------------------------ long horizons
 
 

@@ -375,6 +375,7 @@ _RECURRING_FAST = tuple(_axis_kernel(a, False, True) for a in range(3))
 _AX0F, _AX1F, _AX2F = _AXIS_FAST
 _AX0G, _AX1G, _AX2G = _AXIS_GENERAL
 _RC0F, _RC1F, _RC2F = _RECURRING_FAST
+_RC0G, _RC1G, _RC2G = (_axis_kernel(a, True, True) for a in range(3))
 _RC0C, _RC1C, _RC2C = (_axis_kernel(a, False, True, True) for a in range(3))
 _SPHERE_FAST = _sphere_kernel(False)
 _SPHERE_GENERAL = _sphere_kernel(True)
@@ -679,7 +680,14 @@ def _apply(family, kind, axis, fast, buf, par, j, nb, tau):
             _RC1F(buf, par, j, nb, tau)
         else:
             _RC2F(buf, par, j, nb, tau)
-    elif family == F_AXES or kind == AXIS or kind == AXIS_RECURRING:
+    elif kind == AXIS_RECURRING:  # (the normalised pair, as the fast recurring kernel's)
+        if axis == 0:
+            _RC0G(buf, par, j, nb, tau)
+        elif axis == 1:
+            _RC1G(buf, par, j, nb, tau)
+        else:
+            _RC2G(buf, par, j, nb, tau)
+    elif family == F_AXES or kind == AXIS:
         if fast & FAST:
             if axis == 0:
                 _AX0F(buf, par, j, nb, tau)
