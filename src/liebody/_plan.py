@@ -1120,7 +1120,8 @@ class FlowSequence(Recipe):
     def stages(self, b, h, key):
         if b.moving_rotor and self.symmetric and not self.rotor_reads_mirrored:
             raise ValueError(
-                "its rotations read the rotor (wheel) momentum, which changes in time here, "
+                "its rotations read the rotor (wheel) momentum, which the controls change "
+                "in time here, "
                 "at times that do not mirror about the middle of the step (a T_k piece "
                 "reads it at the middle of its clock advance), so on this scene it is "
                 "first order, not the order it declares; advance the clock symmetrically, "
