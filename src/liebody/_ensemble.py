@@ -143,9 +143,9 @@ class EnsembleRun:
         if len(groups) > 1:  # each group on contiguous rows of the samples, in this order
             self.order = np.concatenate([idx for idx, _ in groups])
             self.q_out[:, 0], self.m_out[:, 0] = self.q0[self.order], self.m0[self.order]
-        starts = np.cumsum([0] + [len(idx) for idx, _ in groups])
+        starts = np.cumsum([0] + [len(idx) for idx, _ in groups[:-1]])
         work = [self._group(idx, plan, r[0], r[1], slice(a, a + len(idx)))
-                for (idx, plan), r, a in zip(groups, runners, starts, strict=False)]
+                for (idx, plan), r, a in zip(groups, runners, starts, strict=True)]
         chunks = [(g, c) for g in work for c in self._chunks(len(g["idx"]))]
         done = 0
         with _pool(min(self.threads, len(chunks))) as pool:

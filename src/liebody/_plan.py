@@ -369,7 +369,7 @@ class Plan:
     ``params`` holds the distinct parameter rows of the stages, with a leading body axis:
     ``(N, r, N_PARAMS)``, or ``(1, r, N_PARAMS)`` when every body of the group has the same
     parameters (stored once); stage ``j`` reads row ``slots[j]`` (a composition repeats
-    its base's few rows: ``splitting8``'s 61 stages read 3 rows on a free body, so
+    its base's few rows: ``splitting8``'s 52 stages read 2 or 3 rows on a free body, so
     per-body parameters cost ``r`` rows a body, not one per stage). ``model`` holds the torque
     model's parameter rows (``(1, k)`` shared, or ``(N, k)``) and ``model_shared`` its block
     that every body reads (1-d, stored once); the structure (``kinds``,
@@ -409,11 +409,6 @@ class Plan:
     @property
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
-
-    def stage_rows(self, body: int = 0) -> np.ndarray:
-        """Body ``body``'s parameter row of every stage, ``(s, N_PARAMS)`` (a copy: the
-        plan keeps each distinct row once, :attr:`slots`)."""
-        return self.params[0 if self.params.shape[0] == 1 else body][self.slots]
 
     def with_info(self, info: dict) -> Plan:
         """This plan with another ``info`` (an initial state of the same key): the arrays

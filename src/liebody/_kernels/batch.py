@@ -873,9 +873,8 @@ def _gather(kinds, params, slots, mpar, ms, idx, nb, par):
 
 @jit
 def _run_block(family, diag, kinds, axes, coefs, clock, params, slots, merge_ends, h, t0,
-               step0,
-               n_steps, save_every, final, state, ctl, q_out, m_out, saved, done, status,
-               torque_addr, mpar, ms, dref, dmax, idx, nb, buf, par, fast, alive):
+               step0, n_steps, save_every, final, state, ctl, q_out, m_out, saved, done,
+               status, torque_addr, mpar, ms, dref, dmax, idx, nb, buf, par, fast, alive):
     """Run ``n_steps`` steps of the ``nb`` bodies ``idx[:nb]`` (same ``ctl``).
 
     ``family`` and ``diag`` are run-time values here (the drivers pass them as plain
