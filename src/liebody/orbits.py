@@ -90,7 +90,8 @@ class Orbit:
         return type(other) is type(self) and np.array_equal(other.row, self.row)
 
     def __hash__(self) -> int:
-        return hash((type(self).__name__, self.row.tobytes()))
+        # + 0.0 turns -0.0 into 0.0: rows equal under __eq__ have the same bytes
+        return hash((type(self).__name__, (self.row + 0.0).tobytes()))
 
 
 class Circular(Orbit):
