@@ -1034,6 +1034,12 @@ def gravity_gradient_stability(moments) -> GravityGradientStability:
         the growth rate (in units of ``n``) and ``k1``, ``k3``. Boundaries (equal moments
         within ``1e-10`` relative, making a root zero, or a double roll-yaw root) are
         marginal: not stable, ``growth_rate`` from the remaining modes.
+
+    Raises
+    ------
+    ValueError
+        Moments that are not three finite numbers > 0, or whose ratios are so extreme
+        (far from any physical body) that the coefficients above overflow float64.
     """
     I = _as_moments("moments", moments)
     I1, I2, I3 = (float(v) for v in I)
@@ -1052,6 +1058,11 @@ def gravity_gradient_stability(moments) -> GravityGradientStability:
     b = 1.0 + 3.0 * k1 + k1 * k3
     c = 4.0 * k1 * k3
     disc = b * b - 4.0 * c
+    if not (math.isfinite(p) and math.isfinite(disc)):
+        raise ValueError(
+            f"moments {I.tolist()} span too many orders of magnitude for float64: the "
+            f"coefficients of the linearised motion overflow (3 (I1 - I3)/I2 = {p:g}, "
+            f"b^2 - 4 c = {disc:g})")
     double = abs(disc) <= _DOUBLE_ROOT_RTOL * max(b * b, abs(4.0 * c), 1e-300)
     roll_yaw_stable = b > 0.0 and c > 0.0 and disc > 0.0 and not double
     roll_yaw_frequencies = None

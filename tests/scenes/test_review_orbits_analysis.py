@@ -2,12 +2,18 @@
 
 * Orbits: equal orbits hash equal (the ``__eq__``/``__hash__`` contract), also when an
   angle or a coordinate is a signed zero.
+* gravity_gradient_stability: the textbook inequalities (Hughes 1986, ch. 9) at extreme
+  moment ratios, and a ValueError where float64 cannot hold the coefficients.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+import pytest
+
+from liebody import analysis
 from liebody.orbits import Circular, Kepler, Table
 
 
@@ -26,3 +32,23 @@ def test_equal_orbits_hash_equal_with_signed_zeros():
         assert a == b
         assert hash(a) == hash(b), (a, b)
         assert len({a, b}) == 1
+
+
+def test_gravity_gradient_stability_refuses_overflowing_moments():
+    """Moments whose ratios overflow the coefficients of the linearised motion gave
+    verdicts from inf and NaN (``growth_rate=inf`` or ``0.0``, the roll-yaw verdict
+    wrong): they are refused naming the moments. Just inside the range the verdicts
+    follow the textbook inequalities."""
+    for moments in ([1.0, 2e160, 1e160], [1e-100, 1e100, 1e-100], [1e-200, 1e200, 1e-200],
+                    [1e200, 1e-200, 1.0]):
+        with pytest.raises(ValueError, match=r"moments .* span too many orders"):
+            analysis.gravity_gradient_stability(moments)
+    s = analysis.gravity_gradient_stability([1.0, 2e150, 1e150])
+    k1, k3 = 1e150, 2.0  # (I2 - I3)/I1, (I2 - I1)/I3
+    b = 1 + 3 * k1 + k1 * k3
+    assert (s.k1, s.k3) == (k1, k3)
+    assert not s.pitch_stable and s.roll_yaw_stable  # I1 < I3; b, c > 0, b^2 > 16 k1 k3
+    assert s.growth_rate == pytest.approx(math.sqrt(3 * (1e150 - 1.0) / 2e150), rel=1e-15)
+    # the roots s^2 of s^4 + b s^2 + 4 k1 k3: about b and 4 k1 k3 / b
+    assert s.roll_yaw_frequencies == pytest.approx((math.sqrt(4 * k1 * k3 / b), math.sqrt(b)),
+                                                   rel=1e-14)
