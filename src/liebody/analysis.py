@@ -642,6 +642,7 @@ def stability(moments, omega: float, axis: int) -> Stability:
     w = abs(_as_real("omega", omega))
     a = _as_axis("axis", axis)
     b, c = (a + 1) % 3, (a + 2) % 3
+    I = np.ldexp(I, -math.frexp(float(np.max(I)))[1])  # kappa is scale-free: exact rescaling
     scale = float(np.max(I))
     eq_b, eq_c = moments_equal(I[a], I[b], scale), moments_equal(I[a], I[c], scale)
     if eq_b and eq_c:
@@ -696,8 +697,12 @@ def dual_spin_stable(moments, omega: float, axis: int, rotor: float) -> Stabilit
     h = _as_real("rotor", rotor)
     a = _as_axis("axis", axis)
     b, c = (a + 1) % 3, (a + 2) % 3
-    fb, fc = (I[a] - I[b]) * w + h, (I[a] - I[c]) * w + h
-    kappa = fb * fc / (I[b] * I[c])
+    # kappa is unchanged when moments and rotor scale together: rescaled exactly (a power
+    # of two) so that the products of moments neither overflow nor underflow
+    e = math.frexp(float(np.max(I)))[1]
+    Is, hs = np.ldexp(I, -e), math.ldexp(h, -e)
+    fb, fc = (Is[a] - Is[b]) * w + hs, (Is[a] - Is[c]) * w + hs
+    kappa = fb * fc / (Is[b] * Is[c])
     if not math.isfinite(kappa):
         raise ValueError(f"the nutation rate overflows for moments {I.tolist()}, omega = {w}, "
                          f"rotor = {h}")

@@ -52,3 +52,24 @@ def test_gravity_gradient_stability_refuses_overflowing_moments():
     # the roots s^2 of s^4 + b s^2 + 4 k1 k3: about b and 4 k1 k3 / b
     assert s.roll_yaw_frequencies == pytest.approx((math.sqrt(4 * k1 * k3 / b), math.sqrt(b)),
                                                    rel=1e-14)
+
+
+@pytest.mark.parametrize("scale", [2.0**-700, 1e-200, 1.0, 1e200, 2.0**700])
+def test_stability_verdicts_do_not_depend_on_the_unit_of_the_moments(scale):
+    """``kappa`` of stability() and dual_spin_stable() is unchanged when the moments (and
+    the rotor momentum) are scaled together: moments of 1e200 gave NaN (``stable=False``
+    about the stable smallest axis) and a dual-spin 'overflow' error. Reference: the
+    closed forms at unit scale (Hand & Finch ch. 8; Hughes 1986, ch. 7)."""
+    I = np.array([1.0, 2.0, 2.5])
+    for axis, stable, kappa in ((0, True, (2 - 1) * (2.5 - 1) / (2 * 2.5)),
+                                (1, False, (2 - 2.5) * (1 - 2) / (2.5 * 1)),
+                                (2, True, (2.5 - 1) * (2.5 - 2) / (1 * 2))):
+        s = analysis.stability(I * scale, 3.0, axis)
+        assert s.stable is stable
+        assert s.rate == pytest.approx(3.0 * math.sqrt(kappa), rel=1e-15)
+    # intermediate axis with a rotor: kappa = ((2 - 2.5) w + h)((2 - 1) w + h) / (2.5 * 1)
+    for h, stable in ((0.4, False), (0.6, True), (-1.2, True)):
+        s = analysis.dual_spin_stable(I * scale, 1.0, 1, h * scale)
+        kappa = ((2 - 2.5) + h) * ((2 - 1) + h) / 2.5
+        assert s.stable is stable and (kappa > 0) is stable
+        assert s.rate == pytest.approx(math.sqrt(abs(kappa)), rel=1e-14)
