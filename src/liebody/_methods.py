@@ -710,34 +710,68 @@ def register_composition(name: str, coefficients, base: str = "splitting2", *,
     return _register(method, replace, stacklevel=3)
 
 
-def _merged_flows(flows: tuple) -> tuple:
-    """The sequence ``(flow, fraction, clock)`` as the plan compiler runs it, for judging
-    its symmetry: pieces of zero fraction and zero clock dropped, adjacent pieces of one
-    flow merged (fractions and clocks added; a merge that cancels drops the piece). A
-    kick reads the clock at its start, so it merges with the next kick only when it
-    leaves the clock where it was; a ``T_k`` merges only when the clocks are in
-    proportion to the fractions (one flow on the extended phase space of a moving rotor);
-    ``damp`` (a second-order step, not an exact flow) never merges; a piece of zero
-    fraction that advances the clock gives its advance to the piece before (kept where
-    it is the first); the first and last pieces are not merged across the step's ends."""
-    out: list[tuple[str, float, float]] = []
-    for name, frac, clock in flows:
-        if frac == 0.0 and clock == 0.0:
-            continue
-        if frac == 0.0 and out:
-            out[-1] = (out[-1][0], out[-1][1], out[-1][2] + clock)
-            continue
-        if (out and out[-1][0] == name and name != "damp" and frac != 0.0
-                and out[-1][1] != 0.0):
-            _, f0, c0 = out[-1]
-            if not ((name == "kick" and c0 != 0.0)
-                    or (name in ("T1", "T2", "T3") and f0 * clock != frac * c0)):
-                out.pop()
-                if f0 + frac != 0.0 or c0 + clock != 0.0:
-                    out.append((name, f0 + frac, c0 + clock))
-                continue
-        out.append((name, frac, clock))
-    return tuple(out)
+#: the torques a user splitting's kicks handle (``Handles`` of :func:`register_splitting`)
+_KICK_TORQUE = frozenset({"time", "orientation"})
+
+
+def _judged_bodies(torque: bool, wheels: bool) -> P.Bodies:
+    """A generic body to judge a user splitting's symmetry on (:func:`_symmetric_as_run`):
+    asymmetric and rigid, or carrying driven wheels (a rotor momentum that changes in
+    time); with a torque of the time and the orientation or none."""
+    return P.Bodies(
+        moments=np.array([[1.0, 2.0, 3.0]]), momenta=np.array([[1.0, 0.5, -0.7]]),
+        model_params=np.zeros((1, 1)), eps=np.zeros(1),
+        rotor=np.array([[0.3, -0.2, 0.1]]) if wheels else np.zeros((1, 3)),
+        capabilities=Capabilities(_KICK_TORQUE, conservative=False) if torque
+        else Capabilities(),
+        free_flow="auto", torque_code=S.TORQUE_USER if torque else S.TORQUE_NONE,
+        moving_rotor=wheels)
+
+
+def _symmetric_as_run(recipe: P.FlowSequence) -> bool:
+    """Whether a user splitting is symmetric as it runs: its plan, compiled as for a
+    run (pieces of one flow merged, pieces that do nothing dropped), reads the same
+    backwards on every kind of scene where the compiler merges differently. Those are a
+    torque or none (a kick is the identity without one) and a rigid body or driven
+    wheels (there a ``T_k`` piece reads the wheels' momentum mid-clock, so pieces of one
+    axis merge only with their clocks in proportion); a symmetric body and a gyrostat of
+    constant rotor momentum merge as the asymmetric rigid body does. Only the kinds the
+    method runs on count: a torque only with kicks, wheels only without ``free``. The
+    rotations' reads of moving wheels are not judged here: a symmetric method is refused
+    on such a scene where they do not mirror (``FlowSequence.rotor_reads_mirrored``)."""
+    recipe = dataclasses.replace(recipe, symmetric=False)  # (judged, not refused)
+    names = {name for name, _, _ in recipe.flows}
+    for torque in (False, True) if "kick" in names else (False,):
+        for wheels in (False,) if "free" in names else (False, True):
+            bodies = _judged_bodies(torque, wheels)
+            key = int(recipe.keys(bodies, 1.0)[0])
+            if not _palindromic_plan(P.plan_of_key(recipe, bodies, 1.0, key)):
+                return False
+    return True
+
+
+def _palindromic_plan(plan: P.Plan) -> bool:
+    """Whether a plan's stages that act (stages of zero length only advance the clock)
+    read the same backwards: kinds, axes and lengths, and the kicks, which read the
+    clock at their start, at mirrored times (``c_i + c_j`` = the step's clock, ``c`` the
+    clock before a stage)."""
+    kinds, axes, coefs = plan.kinds.tolist(), plan.axes.tolist(), plan.coefs.tolist()
+    acting, before, clock = [], [], 0.0
+    for j, c in enumerate(plan.clock.tolist()):
+        if coefs[j] != 0.0:
+            acting.append(j)
+            before.append(clock)
+        clock += c
+    last = len(acting) - 1
+    for i, j in enumerate(acting):
+        m = acting[last - i]
+        if kinds[j] != kinds[m] or axes[j] != axes[m] or \
+                abs(coefs[j] - coefs[m]) > 1e-15 * max(1.0, abs(coefs[j])):
+            return False
+        if kinds[j] in (S.KICK, S.KICK_IMPLICIT) and \
+                abs(before[i] + before[last - i] - clock) > 1e-14:
+            return False
+    return True
 
 
 def register_splitting(name: str, flows, *, order: int | None = None,
@@ -758,12 +792,15 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         ``kick`` and ``damp`` where present; the clocks add up to one step.
     order
         The order to declare; default 2 for a palindromic sequence (a symmetric
-        method), else 1. Symmetry is judged on the sequence as it runs: pieces of zero
-        fraction and clock dropped and adjacent pieces of one flow merged (so
-        ``("free", 0.3), ("free", 0.2)`` counts as ``("free", 0.5)``; a kick that
-        advances the clock does not merge with the next kick, which reads the later
-        time, and ``damp`` pieces never merge), then the flows, fractions and the
-        kicks' clocks must read the same backwards. A higher order is checked as for a
+        method), else 1. Symmetry is judged on the sequence as it runs: the plan
+        compiled for a generic body of each kind of scene the method runs on (a rigid
+        body and driven reaction wheels, with a torque and without), where pieces that
+        do nothing are dropped and adjacent pieces of one flow merged (so ``("free",
+        0.3), ("free", 0.2)`` counts as ``("free", 0.5)``; a kick that advances the
+        clock does not merge with the next kick, which reads the later time; ``damp``
+        pieces never merge; on the wheels, ``T_k`` pieces merge only with their clocks
+        in proportion to their fractions), must read the same backwards on each: the
+        flows, fractions and the times the kicks read. A higher order is checked as for a
         composition: the order conditions (the terms of degree 2 to ``order`` of the
         splitting's Baker-Campbell-Hausdorff logarithm vanish, ``check_splitting``),
         and a false one is refused; a sequence that is not palindromic cannot declare
@@ -809,8 +846,7 @@ def register_splitting(name: str, flows, *, order: int | None = None,
         raise ValueError(f"flows: the clocks add up to {clock!r} steps; a step must advance "
                          f"the clock by exactly one step (the kicks of a time-dependent "
                          f"torque read it)")
-    merged = _merged_flows(recipe.flows)  # symmetry is a property of what runs
-    sym = not merged or P.FlowSequence(merged).palindromic
+    sym = _symmetric_as_run(recipe)  # symmetry is a property of what runs
     if order is None:
         order = 2 if sym else 1
     if not isinstance(order, int | np.integer) or isinstance(order, bool) or order < 1:
@@ -823,7 +859,7 @@ def register_splitting(name: str, flows, *, order: int | None = None,
             f"liebody.testing.observed_order and register a Method yourself")
     if int(order) >= 2:  # (checked on a rotor momentum that changes in time)
         recipe = dataclasses.replace(recipe, symmetric=True)
-    torque = frozenset({"time", "orientation"}) if "kick" in parts else frozenset()
+    torque = _KICK_TORQUE if "kick" in parts else frozenset()
     handles = Handles(torque, dissipation="damp" in parts)
     rotations = sum(1 for n, _, _ in recipe.flows if n in ("T1", "T2", "T3"))
     method = Method(

@@ -11,6 +11,7 @@ import pytest
 
 import liebody
 from liebody import _methods, testing
+from liebody import _plan as P
 
 
 @pytest.fixture
@@ -453,3 +454,98 @@ def test_a_kick_on_a_torque_free_scene_still_advances_the_clock(registered):
             for m in (with_kick, without))
     np.testing.assert_array_equal(a.q, b.q)
     np.testing.assert_array_equal(a.L, b.L)
+
+
+# (flows, symmetric): split kicks, pieces of zero length with clocks, repeated pieces of
+# one flow, clocks on a T3 piece and clocks placed asymmetrically. The verdicts are those
+# of the merge rules register_splitting restated by hand before it judged the compiled
+# plan (each checked by reasoning too: a kick reads the clock at its start; a T_k piece
+# on driven wheels reads it mid-clock, so pieces of one axis with clocks out of
+# proportion stay apart there; damp pieces never merge)
+TRICKY = [
+    ([("kick", 0.25, 0.5), ("kick", 0.25), ("free", 1.0, 0.5), ("kick", 0.5)], False),
+    ([("kick", 0.25), ("kick", 0.25), ("free", 1.0, 1.0), ("kick", 0.5)], True),
+    ([("kick", 0.25), ("kick", 0.25, 1.0), ("free", 1.0), ("kick", 0.5)], True),
+    ([("kick", 0.5, 0.5), ("free", 1.0), ("kick", 0.5, 0.5)], False),
+    ([("kick", 0.25, 0.25), ("kick", 0.25, 0.25), ("free", 1.0), ("kick", 0.5, 0.5)], False),
+    ([("kick", 0.5), ("free", 1.0), ("free", 0.0, 1.0), ("kick", 0.5)], True),
+    ([("kick", 0.5), ("free", 1.0, 0.5), ("kick", 0.0, 0.5), ("kick", 0.5)], True),
+    ([("kick", 0.5), ("T3", 0.0), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0, 1.0), ("T2", 0.5),
+      ("T1", 0.5), ("kick", 0.5)], True),
+    ([("kick", 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 0.0, 1.0), ("T3", 1.0), ("T2", 0.5),
+      ("T1", 0.5), ("kick", 0.5)], True),
+    ([("kick", 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("kick", 0.0, 1.0), ("T2", 0.5),
+      ("T1", 0.5), ("kick", 0.5)], True),
+    (SABA1_CUT, True),
+    ([("free", 0.2, 0.2), ("free", 0.2, 0.2), ("kick", 1.0), ("free", 0.6, 0.6)], False),
+    ([("free", 0.3), ("free", 0.2), ("kick", 1.0, 1.0), ("free", 0.5)], False),
+    ([("T1", 0.25), ("T1", 0.25), ("T2", 0.5), ("T3", 1.0, 1.0), ("T2", 0.5), ("T1", 0.5)],
+     True),
+    ([("T1", 0.25, 0.25), ("T1", 0.25, 0.25), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5),
+      ("T1", 0.5, 0.5)], True),
+    ([("T1", 0.25, 0.5), ("T1", 0.25), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5),
+      ("T1", 0.5, 0.5)], False),
+    ([("T1", 1.0), ("T2", 1.0), ("T3", 1.0, 1.0)], False),
+    ([("T1", 0.5, 1.0), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5), ("T1", 0.5)], True),
+    ([("kick", 0.5), ("T1", 0.5, 1.0), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5), ("T1", 0.5),
+      ("kick", 0.5)], True),
+    ([("kick", 0.5), ("free", 1.0), ("kick", 0.5, 1.0)], False),
+    ([("kick", 0.5, 0.25), ("free", 1.0, 0.5), ("kick", 0.5, 0.25)], False),
+    ([("damp", 0.5), *_strang_flows(1.0)[:2], ("T3", 1.0, 1.0), *_strang_flows(1.0)[3:],
+      ("damp", 0.5)], True),
+    ([("damp", 0.25), ("damp", 0.25), ("free", 1.0, 1.0), ("damp", 0.5)], False),
+    ([("kick", 0.5), ("damp", 0.5), ("free", 1.0, 1.0), ("damp", 0.5), ("kick", 0.5)], True),
+]
+
+
+@pytest.mark.parametrize(("flows", "symmetric"), TRICKY)
+def test_the_symmetry_verdict_on_tricky_sequences(registered, flows, symmetric):
+    """register_splitting judges the symmetry on the plan compiled for the scenes the
+    method runs on: on these sequences it gives the verdict of the merge rules it wrote
+    out by hand before (a second copy of the plan compiler's)."""
+    m = liebody.register_splitting("user_tricky", flows)
+    registered.append(m.name)
+    assert (m.order, m.reversible) == ((2, True) if symmetric else (1, False))
+    assert _methods._symmetric_as_run(P.FlowSequence(tuple(flows))) == symmetric
+
+
+def test_a_sequence_symmetric_once_compiled_is_symmetric(registered):
+    """Sequences that are not palindromes as written but compile to one are symmetric:
+    pieces of T1 and T2 cut differently on the two sides (the plan is Strang's), and
+    free(1/2) free(-1/2) free(1), whose first two cancel, leaving their clock to the
+    third: the plan and the run are Strang's K F K with the clock on F. Before, the
+    hand-written rules kept the cancelled pair as a piece of zero length of its own, and
+    called that sequence first order; so did they a first piece of zero length that only
+    advances the clock (kept, and not mirrored), where the plan has nothing that acts."""
+    cut = [("T1", 0.2), ("T1", 0.3), ("T2", 0.5), ("T3", 1.0, 1.0), ("T2", 0.25),
+           ("T2", 0.25), ("T1", 0.5)]
+    cancel = [("kick", 0.5), ("free", 0.5), ("free", -0.5, 0.5), ("free", 1.0, 0.5),
+              ("kick", 0.5)]
+    late = [("T2", 0.0, 0.5), ("T1", 0.5), ("T2", 0.5), ("T3", 1.0), ("T2", 0.5),
+            ("T1", 0.5, 0.5)]
+    methods = {}
+    for name, flows in (("user_cut", cut), ("user_cancel", cancel), ("user_late", late),
+                        ("user_strang_t", _strang_flows(1.0)[:2] + [("T3", 1.0, 1.0)]
+                         + _strang_flows(1.0)[3:]),
+                        ("user_strang_k", [("kick", 0.5), ("free", 1.0, 1.0),
+                                           ("kick", 0.5)])):
+        methods[name] = liebody.register_splitting(name, flows)
+        registered.append(name)
+        assert not P.FlowSequence(tuple(flows)).palindromic or name.startswith("user_strang")
+        assert (methods[name].order, methods[name].reversible) == (2, True), name
+    wheels, L0, u = _driven_wheels()
+    torqued = liebody.TorqueBody(liebody.RigidBody((1.0, 2.0, 3.0)), _wobble,
+                                 orientation_only=True)
+    free = liebody.FreeBody(liebody.RigidBody((1.0, 2.0, 3.0)))
+    for scene, a, b in ((free, "user_cut", "user_strang_t"),
+                        (torqued, "user_cancel", "user_strang_k")):
+        pa, pb = (methods[n].plan(scene, L0, 0.05) for n in (a, b))
+        for field in ("kinds", "axes", "coefs", "clock"):
+            np.testing.assert_array_equal(getattr(pa, field), getattr(pb, field))
+    a, b = (liebody.integrate(torqued, L0=[3.0, 1.0, -2.0], dt=0.05, steps=100, method=n)
+            for n in ("user_cancel", "user_strang_k"))
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.L, b.L)
+    # the clock of the first piece moves the wheels' reads: refused there as order 2
+    with pytest.raises(ValueError, match=r"user_late: .*do not mirror"):
+        liebody.integrate(wheels, L0=L0, dt=0.01, steps=3, method="user_late", controls=u)
