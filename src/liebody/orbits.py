@@ -135,7 +135,9 @@ class Kepler(Orbit):
     anomaly ``M = M0 + n t``, Kepler's equation ``E - e sin E = M`` is solved to round-off
     in the kernels (also for ``e`` near 1 and large ``t``), and
     ``r = a (cos E - e) P + a sqrt(1 - e^2) sin E Q`` with ``P, Q`` the first two columns
-    of ``Rz(raan) Rx(i) Rz(argp)``.
+    of ``Rz(raan) Rx(i) Rz(argp)``. ``M`` is formed in float64, so the phase carries an
+    error of about an ulp of ``M`` (``1e-15`` rad in the first orbit, ``1e-12`` after
+    ``10^3`` orbits, ``1e-6`` after ``10^9``), and is lost beyond ``|M| ~ 2^53``.
 
     Parameters
     ----------
@@ -206,10 +208,12 @@ class Table(Orbit):
     ``omega(t) = prod_a (t - t_{j+a})`` (K. E. Atkinson, *An Introduction to Numerical
     Analysis*, 2nd ed., Wiley, 1989, sect. 3.2: the divided-difference form of the
     interpolation error). ``error_estimate`` replaces the unknown divided difference
-    with the two divided differences of order ``p`` of the samples next to it (the
-    stencil and one more sample on either side; the larger in norm), takes ``max
-    |omega|`` over each interval (33 points of it), and reports the largest product over
-    the table, plus ``points * eps * max |r|`` for the rounding. It is the leading term
+    with the largest in norm of the four divided differences of order ``p`` of the
+    samples around it (``p + 1`` consecutive samples from ``t_{j-2}``, ``t_{j-1}``,
+    ``t_j`` or ``t_{j+1}``, each sharing at least ``p - 1`` with the stencil), takes ``max
+    |omega|`` over each interval (33 points of it), and reports twice the largest
+    product over the table (a factor of safety), plus ``points * eps * max |r|`` for the
+    rounding. It is the leading term
     of the error, not a rigorous bound: it assumes that the ``p``-th derivative of
     ``r`` changes little over ``p + 1`` samples (the samples resolve the motion).
 

@@ -35,7 +35,7 @@ KEPLER = 0
 TABLE = 1
 KEPLER_WIDTH = 12
 TABLE_HEAD = 6
-#: 2 pi in two parts (the first exact in 33 bits) for the reduction of the mean anomaly
+#: 2 pi in two parts for the reduction of the mean anomaly: ``float64(2 pi)`` and the rest
 _TWO_PI_HI = 6.28318530717958623200e+00
 _TWO_PI_LO = 2.44929359829470635445e-16
 _MAX_ITER = 200
@@ -59,7 +59,11 @@ def _e_minus_sin(E):
 
 @jit
 def reduce_anomaly(M):
-    """``M`` reduced to ``[-pi, pi]`` (two-part 2 pi: exact to about an ulp of ``M``)."""
+    """``M`` reduced to ``[-pi, pi]``, to within an ulp of ``M`` (measured: at most 0.75
+    ulp; ``k 2 pi`` is rounded, the size of the rounding of ``M = M0 + n t`` itself). The
+    result may lie outside ``[-pi, pi]`` by that much; from ``|M| ~ 2^53`` on (an ulp of 2)
+    the phase is lost and ``M`` is not reduced reliably (a point on the orbit all the
+    same)."""
     if abs(M) <= math.pi:
         return M
     k = math.floor(M / _TWO_PI_HI + 0.5)
@@ -75,7 +79,7 @@ def eccentric_anomaly(M, e):
     method from ``E0 = min(pi, M + e)`` (``f(E0) >= 0``) decreases monotonically to the
     root. ``f`` and ``f' = (1 - e) + 2 e sin^2(E/2)`` are evaluated without cancellation,
     so the root is accurate to a few ulps also for ``e`` near 1 and ``M`` near 0.
-    Returns ``E`` in ``[-pi, pi]``.
+    Returns ``E`` in ``[-pi, pi]`` (up to the ulp of ``M`` of :func:`reduce_anomaly`).
     """
     M = reduce_anomaly(M)
     if e == 0.0 or M == 0.0:
