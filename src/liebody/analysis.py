@@ -670,7 +670,7 @@ def dual_spin_stable(moments, omega: float, axis: int, rotor: float) -> Stabilit
     stable (oscillating at ``sqrt(kappa)``) when both factors have one sign, unstable
     (growing at ``sqrt(-kappa)``) when they differ. Without a rotor this is
     :func:`stability`'s rule (the intermediate axis is unstable); a rotor momentum of the
-    spin's sign, ``rotor > (I_b - I_a) |omega|`` for the larger transverse moment ``I_b``,
+    spin's sign, ``|rotor| > (I_b - I_a) |omega|`` for the larger transverse moment ``I_b``,
     stabilises rotation about any axis, the intermediate one included. (Energy
     dissipation in the body changes the rule: the Iorillo/Likins criterion; not modelled
     here.)
