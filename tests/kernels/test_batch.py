@@ -518,12 +518,9 @@ def test_fast_sincos_at_the_edges():
 # ------------------------------------------------------------------ vectorisation
 
 
-@pytest.mark.skipif(not JIT, reason="needs the compiled kernels")
-@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 assembly")
-def test_the_block_loops_compile_to_packed_instructions():
-    """Each stage loop, recompiled without the disk cache (cached code cannot be
-    inspected), holds packed double-precision arithmetic (``mulpd``/``vfmadd...pd`` on
-    xmm/ymm/zmm registers): LLVM vectorised the loop over the block."""
+def _block_loops():
+    """Each SIMD stage loop with arguments to compile it, recompiled without the disk
+    cache (cached code cannot be inspected)."""
     import numba
 
     from liebody._kernels import batch as B
@@ -537,7 +534,6 @@ def test_the_block_loops_compile_to_packed_instructions():
           np.zeros((6, B.BLOCK)), np.zeros((B.BLOCK, 6)), np.zeros(B.BLOCK, dtype=np.int64),
           np.zeros(1))
     rows = (B.W0, B.X0, B.Y0, B.Z0)
-    packed = re.compile(r"\bv?(mul|add|sub|fn?m(add|sub)\d*)pd\b")
     for fn, args in ((B._AX0F, (buf, par, 0, 3, 0.1)), (B._AX2G, (buf, par, 0, 3, 0.1)),
                      (B._AX1F, (buf, par, 0, 3, 0.1)), (B._RC2C, (buf, par, 0, 3, 0.1)),
                      (B._SPHERE_FAST, (buf, par, 0, 3, 0.1)),
@@ -550,8 +546,39 @@ def test_the_block_loops_compile_to_packed_instructions():
         opts = {k: v for k, v in fn.targetoptions.items() if k not in ("cache", "nopython")}
         fresh = numba.njit(**opts)(fn.py_func)
         fresh(*args)
+        yield fn.py_func.__qualname__, fresh
+
+
+#: packed double-precision arithmetic (mulpd, vfmadd...pd, ...) and its register
+PACKED = re.compile(r"\bv?(?:mul|add|sub|fn?m(?:add|sub)\d*)pd\s+%?([xyz]mm)")
+
+
+@pytest.mark.skipif(not JIT, reason="needs the compiled kernels")
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 assembly")
+def test_the_block_loops_compile_to_packed_instructions():
+    """Each stage loop holds packed double-precision arithmetic (``mulpd``/``vfmadd...pd``
+    on xmm/ymm/zmm registers): LLVM vectorised the loop over the block."""
+    for name, fresh in _block_loops():
         asm = fresh.inspect_asm(fresh.signatures[0])
-        assert len(packed.findall(asm)) >= 8, fn.py_func.__qualname__
+        assert len(PACKED.findall(asm)) >= 8, name
+
+
+@pytest.mark.skipif(not JIT, reason="needs the compiled kernels")
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 assembly")
+def test_the_block_loops_use_the_widest_vectors():
+    """Each stage loop asks LLVM for 512-bit vectors (``trig.wide_vectors``: LLVM prefers
+    256 bits on AVX-512 CPUs), and on a CPU with AVX-512 its packed arithmetic runs on
+    zmm registers, 8 bodies per instruction."""
+    import llvmlite.binding as ll
+
+    from liebody._kernels.trig import WIDE_VECTORS
+
+    avx512 = "+avx512f" in ll.get_host_cpu_features().flatten().split(",")
+    for name, fresh in _block_loops():
+        assert WIDE_VECTORS in fresh.inspect_llvm(fresh.signatures[0]), name
+        if avx512:
+            regs = PACKED.findall(fresh.inspect_asm(fresh.signatures[0]))
+            assert regs.count("zmm") >= 8, (name, sorted(set(regs)))
 
 
 @pytest.mark.kernel

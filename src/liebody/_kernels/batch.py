@@ -179,6 +179,7 @@ from liebody._kernels.trig import (
     sincos,
     sincos_small,
     sincos_small_raw,
+    wide_vectors,
 )
 from liebody._models import dispatch
 
@@ -301,6 +302,7 @@ def _axis_kernel(axis: int, general: bool, recurring: bool, constant: bool = Fal
 
     @jit(tag=tag)
     def kernel(buf, par, j, nb, tau):
+        wide_vectors()
         ht = 0.5 * tau
         for i in range(nb):
             if constant:
@@ -334,6 +336,7 @@ def _sphere_kernel(general: bool):
 
     @jit(tag="general" if general else "small")
     def kernel(buf, par, j, nb, tau):
+        wide_vectors()
         for i in range(nb):
             a = tau * par[j, 0, i]
             r1 = a * buf[M10 + i]
@@ -390,6 +393,7 @@ def _project_block(buf, nb, sphere, axis, par, j, tau):
     the other bodies are left bit for bit (``k = 0``). After a large rotation that recurs
     every step the roundings can repeat (at a step near a multiple of a half turn), and
     ``|q|`` would drift."""
+    wide_vectors()
     for i in range(nb):
         w = buf[W0 + i]
         x = buf[X0 + i]
@@ -426,6 +430,7 @@ def _project_block(buf, nb, sphere, axis, par, j, tau):
 def _kick_block(buf, par, j, nb, tau):
     """Uniform-gravity kick ``m += tau (Gamma x c)`` over a block (the scalar ``_kick``'s
     arithmetic); a torque that is not finite flags ``STATUS_TORQUE``."""
+    wide_vectors()
     for i in range(nb):
         w = buf[W0 + i]
         x = buf[X0 + i]
@@ -460,6 +465,7 @@ def _model_kick_block(buf, mc, par, j, nb, t, tau):
     ``_explicit_kick``'s arithmetic); a torque that is not finite flags ``STATUS_TORQUE``.
     ``mc`` is the block's model context (see ``_run_block``), ``par`` the gathered
     parameters (the model's ``block_constants`` in ``par[j, 0..2]``)."""
+    wide_vectors()
     code, addr, mpar, params, idx, scratch = mc[0], mc[2], mc[3], mc[4], mc[5], mc[6]
     slot = mc[11][j]  # the stage's row of params
     # the time-only part (the sources' positions) once for the block, from the shared block
@@ -514,6 +520,7 @@ def _dmv_block(buf, p, nb, tau):
     Gauss–Seidel fixed point for every body at once (per-body convergence mask, common
     iteration count), the scalar step for the bodies it does not settle, then the
     update. ``p`` holds the rows I1, I2, I3, f1, f2, f3. Bit for bit the scalar step."""
+    wide_vectors()
     if tau == 0.0:
         return
     hh = 0.5 * tau
@@ -611,6 +618,7 @@ def _diagnose_block(buf, nb, mc, t):
     """``driver._diagnose`` for every body of a block (rows ``R_D``, references ``R_DREF``)
     at time ``t``: uniform gravity's potential vectorised (its weight arm in the reference
     rows 3..5, zero without a potential), any other model's lane by lane."""
+    wide_vectors()
     dcode, mpar, idx, ms = mc[1], mc[3], mc[5], mc[10]
     mshared = mpar.shape[0] == 1
     # another model's potential first, lane by lane, into the torque rows (free here);
@@ -720,6 +728,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
     function binds its arguments afresh at every call, an atomic increment and decrement
     per array: 30 % of a free body's step); the kicks of models other than uniform gravity
     are regular calls that borrow it."""
+    wide_vectors()
     ns = kinds.shape[0]
     last = ns - 1
     models = mcode != TORQUE_GRAVITY
@@ -754,6 +763,7 @@ def _steps(family, diag, kinds, axes, coefs, clock, par, fast, merge_ends, h, t0
 
 @jit
 def _copy_rows(buf, src, dst, rows, nb):
+    wide_vectors()
     for r in range(rows):
         a = (src + r) * BLOCK
         b = (dst + r) * BLOCK
@@ -766,6 +776,7 @@ def _constant_turns(buf, par, j, nb, tau, axis):
     """The sine and cosine of a recurring rotation's turn at the chunk's start, for its
     CONSTANT kernel: ``(s2, cm2, s, cm)`` into ``par[j, 1..4]``, the numbers the
     recurring kernel computes at every step (the same expressions)."""
+    wide_vectors()
     ht = 0.5 * tau
     oa = M10 if axis == 0 else (M20 if axis == 1 else M30)
     for i in range(nb):
@@ -800,6 +811,7 @@ def _fast_flags(kinds, axes, coefs, par, merge_ends, h, buf, nb, alive, steps, f
     steps: ``|half| <= |tau| |rate| |m| / 2`` with ``|m|`` kept by the rotations and
     grown by at most ``sum |tau_kick| B |q|^2`` per step by the kicks, ``B`` the model's
     torque bound (``dispatch.torque_bound``; inf for a user torque: never fast)."""
+    wide_vectors()
     ns = kinds.shape[0]
     kick_h = 0.0
     for j in range(ns):
@@ -882,6 +894,7 @@ def _run_block(family, diag, kinds, axes, coefs, clock, params, slots, merge_end
     driver (about 19 s with an empty cache, then about 1.5 s for each further driver,
     29 s for all eight) instead of once per driver (about 9 s each, 75 s); the stage
     dispatch per block and stage that this costs is not measurable."""
+    wide_vectors()
     for b in range(nb):
         i = idx[b]
         for r in range(7):

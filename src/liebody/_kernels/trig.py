@@ -12,6 +12,7 @@ from fractions import Fraction
 
 import numpy as np
 from numba import types
+from numba.core import config
 from numba.extending import intrinsic, overload
 
 from liebody._kernels._jit import jit, overload_options
@@ -46,6 +47,43 @@ def _llvm_fma(typingctx, a, b, c):
         return builder.fma(*args)
 
     return sig, codegen
+
+
+# ------------------------------------------------------------------ vector width
+#: the LLVM function attribute :func:`wide_vectors` sets
+WIDE_VECTORS = '"prefer-vector-width"="512"'
+
+
+def _wide_vectors_py():
+    """Uncompiled: nothing to mark."""
+
+
+def _wide_vectors_intrinsic():
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def wide_vectors(typingctx):
+        """Mark the kernel whose body calls this to vectorise its loops with 512-bit
+        registers where the CPU has them: LLVM's x86 backend prefers 256-bit vectors on
+        AVX-512 CPUs (the clock throttling of the first ones), and the attribute
+        ``prefer-vector-width`` of a function overrides that for the function alone, not
+        for the process (``NUMBA_CPU_FEATURES`` would). On a CPU without AVX-512 the
+        widest legal vectors are used, as before. Call it in the kernel's own body (a
+        numba overload is a function of its own)."""
+
+        def codegen(context, builder, signature, args):
+            # (llvmlite knows only keyword attributes; a string attribute is written
+            # into the function's attribute set as LLVM spells it)
+            set.add(builder.function.attributes, WIDE_VECTORS)
+            return context.get_dummy_value()
+
+        return types.void(), codegen
+
+    return wide_vectors
+
+
+#: ``wide_vectors()``: the SIMD kernels' first statement (:func:`_wide_vectors_intrinsic`)
+wide_vectors = _wide_vectors_py if config.DISABLE_JIT else _wide_vectors_intrinsic()
 
 
 @overload(fma, jit_options=overload_options())

@@ -26,7 +26,7 @@ import math
 from liebody._kernels._jit import jit
 from liebody._kernels.quat import qrotate_inv
 from liebody._kernels.stages import TORQUE_GRAVITY_GRADIENT
-from liebody._kernels.trig import fma
+from liebody._kernels.trig import fma, wide_vectors
 from liebody._models import orbit
 
 CODE = TORQUE_GRAVITY_GRADIENT
@@ -123,6 +123,7 @@ def torque_block(scratch, par, j, nb, state, rows, work):
     at ``par[j, 0..2, b]`` (:func:`block_constants`), the torques into ``work[0..2, b]``;
     sources outermost, so that the body loop vectorises, and each body's sum in the
     scalar's order (bit for bit)."""
+    wide_vectors()
     w0, x0, y0, z0 = rows[0], rows[1], rows[2], rows[3]
     for b in range(nb):  # (not "= a" for the first source: that branch stops the vectoriser)
         work[0, b] = 0.0
