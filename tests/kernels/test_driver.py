@@ -207,3 +207,32 @@ def test_the_argument_lists_hold_the_clock_where_the_drivers_take_it():
                    batch.SIMD_RUNNERS[(S.F_AXES, False)]):
         params = list(inspect.signature(runner.py_func).parameters)
         assert [params[i] for i in where] == list(names), params
+
+
+# ------------------------------------------------------------------ code generation
+
+
+@pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT") == "1",
+                    reason="needs the compiled kernels")
+def test_the_gravity_gradient_torque_is_inlined_into_its_callers():
+    """The gravity-gradient torque, a kernel of its own (numba's IR inlining doubled the
+    drivers' compile time), is inlined by LLVM (``trig.inline_into_callers``): a kernel
+    that calls it, compiled afresh, holds no call to it, and gives the same numbers."""
+    import math
+
+    import numba
+
+    from liebody._models import gravity_gradient
+    from liebody.orbits import Circular
+
+    scene = liebody.GravityGradient(liebody.RigidBody([100.0, 120.0, 80.0]),
+                                    [(3.986e14, Circular(1.1e-3, 7.0e6, phase=math.pi))])
+    model = scene.torque_model()
+    mp, ms = np.asarray(model.params[0], dtype=float), np.asarray(model.shared, dtype=float)
+    kick = numba.njit(lambda t, q, mp, ms: gravity_gradient.torque(
+        t, q[0], q[1], q[2], q[3], mp, ms))
+    q = np.array([0.9, 0.1, -0.2, 0.3]) / np.linalg.norm([0.9, 0.1, -0.2, 0.3])
+    assert kick(12.5, q, mp, ms) == gravity_gradient.torque(12.5, *q, mp, ms)
+    ir = kick.inspect_llvm(kick.signatures[0])
+    calls = re.findall(r"call [^\n]*@(_ZN7liebody7_models16gravity_gradient6torque\S*)\(", ir)
+    assert not calls, calls

@@ -1,4 +1,5 @@
-"""Fused multiply-add and a branch-free polynomial sine and cosine (numba, float64).
+"""Fused multiply-add and a branch-free polynomial sine and cosine (numba, float64), and
+two code-generation marks for kernels (wide vectors, inlining by LLVM).
 
 The SIMD kernels' trigonometry (libm does not vectorise), and the circular orbits' (one
 inlined call instead of two libm calls). Accuracy and rounding: ``liebody._kernels.batch``,
@@ -55,7 +56,7 @@ WIDE_VECTORS = '"prefer-vector-width"="512"'
 
 
 def _wide_vectors_py():
-    """Uncompiled: nothing to mark."""
+    """Uncompiled: nothing to mark (:func:`wide_vectors`, :func:`inline_into_callers`)."""
 
 
 def _wide_vectors_intrinsic():
@@ -84,6 +85,33 @@ def _wide_vectors_intrinsic():
 
 #: ``wide_vectors()``: the SIMD kernels' first statement (:func:`_wide_vectors_intrinsic`)
 wide_vectors = _wide_vectors_py if config.DISABLE_JIT else _wide_vectors_intrinsic()
+
+
+def _inline_into_callers_intrinsic():
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def inline_into_callers(typingctx):
+        """Mark the kernel whose body calls this for LLVM to inline wherever it is called
+        (the LLVM attribute ``alwaysinline``): no call, and the caller's optimiser sees
+        its arithmetic. numba's own ``inline="always"`` inlines at numba's IR level and
+        types the body again at every call site: for the gravity-gradient torque that
+        made the drivers' first compile 50 % longer, this costs nothing measurable. Call
+        it in the kernel's own body."""
+
+        def codegen(context, builder, signature, args):
+            builder.function.attributes.add("alwaysinline")
+            return context.get_dummy_value()
+
+        return types.void(), codegen
+
+    return inline_into_callers
+
+
+#: ``inline_into_callers()``: a kernel's first statement
+#: (:func:`_inline_into_callers_intrinsic`); uncompiled, nothing
+inline_into_callers = _wide_vectors_py if config.DISABLE_JIT else \
+    _inline_into_callers_intrinsic()
 
 
 @overload(fma, jit_options=overload_options())
