@@ -336,11 +336,21 @@ def _run_class():
                             write_slots(params, after)
                             end = start + length
                         k = min(stop, end) - done
-                        with interrupt_after_call():
-                            d, s, status = self._call(runner, plan, params, merge, state,
-                                                      ctl, addr, done, saved, k)
-                            done += d
-                            saved += s
+                        # a piece's last step ends on its full state (unmerged), as the
+                        # Stepper's call that the cut ends does: the same numbers
+                        cut = merge and done + k == end
+                        if k > cut:
+                            with interrupt_after_call():
+                                d, s, status = self._call(runner, plan, params, merge, state,
+                                                          ctl, addr, done, saved, k - cut)
+                                done += d
+                                saved += s
+                        if cut and status == S.STATUS_OK:
+                            with interrupt_after_call():
+                                d, s, status = self._call(runner, plan, params, False, state,
+                                                          ctl, addr, done, saved, 1)
+                                done += d
+                                saved += s
                     if status != S.STATUS_OK:
                         break
             except KeyboardInterrupt:
