@@ -222,8 +222,9 @@ class Trajectory:
     @property
     def omega(self) -> np.ndarray:
         """Body-frame angular velocity ``omega_i = L_i / I_i`` (a gyrostat's
-        ``(L_i - l_i) / I_i``, ``l`` its rotor momentum)."""
-        l = self._rotor
+        ``(L_i - l_i) / I_i``, ``l`` its rotor momentum; with reaction wheels
+        (:attr:`wheels`) ``l = A h`` at each sample)."""
+        l = self._rotor if self.wheels is None else self.scene.rotor_momentum_of(self.wheels)
         return (self.L if l is None else self.L - l) / self.moments
 
     @property

@@ -90,3 +90,32 @@ def test_integrate_equals_the_stepper_when_a_wheel_lands_inside_a_call():
             assert s.saturations == tr.saturations
             assert [(e.t, e.wheel) for e in tr.saturations if e.limit == "speed"][:1] == [
                 (pytest.approx(31.4), 2)]
+
+
+def test_trajectory_omega_is_the_bodys_rate_with_the_wheels_subtracted():
+    """Trajectory.omega is the body's angular velocity I^-1 (L - A h) at every sample (the
+    omega0 given at the first), for one body and for an ensemble with per-body inertia and
+    wheel momenta; omega_space is R(q) of it. (Before the fix it was L / I, the wheels'
+    momentum counted as the body's: 0.07 rad/s off at the first sample here.)"""
+    axes = _skew_axes()
+    J = np.array([0.05, 0.04, 0.06, 0.03])
+    h0 = np.array([0.2, -0.1, 0.3, 0.05])
+    u = np.array([0.01, -0.02, 0.005, 0.015])
+    scene = liebody.ReactionWheels(BODY, axes, J, momentum=h0)
+    tr = liebody.integrate(scene, q0=Q0, omega0=W0, dt=0.05, steps=100, controls=u,
+                           save_every=10)
+    np.testing.assert_allclose(tr.omega[0], W0, rtol=0, atol=1e-16)
+    want = (tr.L - tr.wheels @ axes) / I
+    np.testing.assert_allclose(tr.omega, want, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(tr.omega_space,
+                               [_rot(q) @ w for q, w in zip(tr.q, want, strict=True)],
+                               rtol=0, atol=1e-14)
+    bodies = liebody.RigidBody.batch([I, [4.0, 5.0, 6.0]])
+    ens = liebody.ReactionWheels(bodies, axes, J, momentum=[h0, -h0])
+    tr = liebody.integrate(ens, q0=Q0, omega0=W0, dt=0.05, steps=100, controls=u,
+                           save_every=10)
+    for i in range(2):
+        want = (tr.L[i] - tr.wheels[i] @ axes) / np.asarray(bodies.moments)[i]
+        np.testing.assert_allclose(tr.omega[i], want, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(tr.omega[i, 0], W0, rtol=0, atol=1e-16)
+        np.testing.assert_allclose(tr.body(i).omega, want, rtol=0, atol=1e-15)
