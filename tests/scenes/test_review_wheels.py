@@ -119,3 +119,33 @@ def test_trajectory_omega_is_the_bodys_rate_with_the_wheels_subtracted():
         np.testing.assert_allclose(tr.omega[i], want, rtol=0, atol=1e-15)
         np.testing.assert_allclose(tr.omega[i, 0], W0, rtol=0, atol=1e-16)
         np.testing.assert_allclose(tr.body(i).omega, want, rtol=0, atol=1e-15)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "an ensemble WheelStepper cuts every body's call where any body's wheel reaches its "
+    "speed limit, and the base Stepper's ensemble call ends every body unmerged at a cut "
+    "(final), so with a method that merges end stages (splitting2) the other bodies differ "
+    "from their one-body steppers by round-off; a fix needs a non-final ensemble call in "
+    "_stepper.py (per-body cut or carried merge)"))
+def test_an_ensemble_steppers_bodies_equal_their_one_body_steppers_through_saturations():
+    """simd=False: every body of an ensemble Stepper gets exactly the numbers of its
+    one-body Stepper, also when another body's wheel lands on its speed limit inside a
+    step(n) call."""
+    bodies = liebody.RigidBody.batch([I, [4.0, 5.0, 6.0], [3.5, 2.5, 6.0]])
+    J = np.array([[0.05, 0.04, 0.06], [0.06, 0.05, 0.04], [0.03, 0.04, 0.05]])
+    scene = liebody.ReactionWheels(bodies, np.eye(3), J, momentum=[0.1, 0.2, -0.1],
+                                   max_speed=[12.0, 13.0, 14.0], max_torque=0.05)
+    u = np.array([[0.01, -0.02, 0.03], [-0.03, 0.01, 0.02], [0.06, 0.0, -0.01]])
+    w0 = np.array([0.04, -0.03, 0.02])
+    ens = liebody.Stepper(scene, q0=Q0, omega0=w0, dt=0.1, controls=u, simd=False)
+    ones = [liebody.Stepper(scene.take(i), q0=Q0, omega0=w0, dt=0.1, controls=u[i])
+            for i in range(3)]
+    for _ in range(7):
+        ens.step(100)
+        for s in ones:
+            s.step(100)
+    assert len(ens.saturations) >= 6
+    for i, s in enumerate(ones):
+        np.testing.assert_array_equal(ens.wheel_momentum[i], s.wheel_momentum)
+        np.testing.assert_array_equal(ens.q[i], s.q)
+        np.testing.assert_array_equal(ens.L[i], s.L)
