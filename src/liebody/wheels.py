@@ -264,11 +264,14 @@ class ReactionWheels(Scene):
                 f"the body ({body.shape[0] if body.shape else 1} bodies), inertia {J.shape} "
                 f"and momentum {h.shape} must describe the same number of bodies") from None
         if w_max is not None:
-            over = np.abs(h) > J * w_max
+            over = np.abs(h) > J * w_max  # (k,) or (N, k): h or J may be per body
             if over.any():
                 i = np.unravel_index(int(np.argmax(over)), over.shape)
+                where = f"wheel {int(i[-1])}" + (f" of body {int(i[0])}" if over.ndim == 2
+                                                 else "")
                 raise ValueError(f"momentum must be within the speed limit, |h_k| <= J_k "
-                                 f"max_speed; got h = {float(h[i])!r} for wheel {int(i[-1])} "
+                                 f"max_speed; got h = "
+                                 f"{float(np.broadcast_to(h, over.shape)[i])!r} for {where} "
                                  f"(J_k max_speed = "
                                  f"{float(np.broadcast_to(J * w_max, over.shape)[i])!r})")
         for name, v in (("axes", g), ("inertia", J), ("momentum", h), ("max_torque", t_max),

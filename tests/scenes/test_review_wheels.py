@@ -440,3 +440,53 @@ def test_piecewise_integrate_and_the_stepper_agree_to_round_off():
     for t, w in speed:
         assert (any(abs(t - t2) <= 1e-12 and w == w2 for t2, w2 in mine)
                 or abs(t / 2.5 - round(t / 2.5)) <= 1e-12)
+
+
+# ---------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(("momentum", "inertia", "where"), [
+    (0.3, [[0.05] * 3, [0.02] * 3], "wheel 0 of body 1"),  # h for every body, J per body
+    ([[0.0, 0.0, 0.0], [0.0, 0.3, 0.0]], 0.02, "wheel 1 of body 1"),
+    (0.3, 0.02, "wheel 0 "),
+])
+def test_momentum_beyond_the_speed_limit_is_refused_by_name(momentum, inertia, where):
+    """A ValueError naming the momentum, the wheel and the body (before the fix, momentum
+    for every wheel with per-body inertia raised an IndexError from the message)."""
+    body = liebody.RigidBody.batch([I, I]) if np.ndim(inertia) == 2 or np.ndim(momentum) == 2 \
+        else BODY
+    with pytest.raises(ValueError, match=f"momentum must be within the speed limit.*got h = "
+                                         f"0.3 for {where}"):
+        liebody.ReactionWheels(body, np.eye(3), inertia, momentum=momentum, max_speed=10.0)
+
+
+@pytest.mark.parametrize(("kwargs", "error", "match"), [
+    ({"axes": [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]}, ValueError, "axes must be linearly"),
+    ({"axes": [[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0], [0, -1.0, 0]]}, ValueError,
+     "axes of 4 wheels .* must span"),
+    ({"axes": [[0.0, 0.0, 0.0]]}, ValueError, "axes must be unit vectors"),
+    ({"axes": [[math.nan, 0.0, 0.0]]}, ValueError, "axes must be finite"),
+    ({"axes": np.eye(3) * (1 + 0j)}, TypeError, "axes must contain real numbers"),
+    ({"inertia": [0.1, 0.0, 0.1]}, ValueError, "inertia must be > 0.*index 1"),
+    ({"inertia": math.inf}, ValueError, "inertia must be finite"),
+    ({"max_torque": math.nan}, ValueError, "max_torque must be finite"),
+    ({"max_speed": [[1.0, 2.0, 3.0]]}, ValueError, "max_speed must be a number or one per"),
+])
+def test_bad_scene_input_is_refused_by_name(kwargs, error, match):
+    args = {"axes": np.eye(3), "inertia": 0.1} | kwargs
+    with pytest.raises(error, match=match):
+        liebody.ReactionWheels(BODY, args.pop("axes"), args.pop("inertia"), **args)
+
+
+def test_non_finite_commands_and_momenta_are_refused_by_name():
+    scene = liebody.ReactionWheels(BODY, np.eye(3), 0.1)  # no limits: nothing clips them
+    for bad in (math.nan, math.inf):
+        with pytest.raises(ValueError, match="controls must be finite"):
+            liebody.integrate(scene, omega0=W0, dt=0.1, steps=2, controls=[bad, 0.0, 0.0])
+        s = liebody.Stepper(scene, omega0=W0, dt=0.1)
+        with pytest.raises(ValueError, match="u must be finite"):
+            s.u = [0.0, bad, 0.0]
+        with pytest.raises(ValueError, match="wheel_momentum must be finite"):
+            s.wheel_momentum = [0.0, 0.0, bad]
+        with pytest.raises(ValueError, match="momentum must be finite"):
+            scene.with_momentum([bad, 0.0, 0.0])
+        np.testing.assert_array_equal(s.u, 0.0)
+        np.testing.assert_array_equal(s.wheel_momentum, 0.0)
