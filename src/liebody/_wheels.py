@@ -219,6 +219,10 @@ class WheelState:
             sel = which == j
             if sel.any():
                 out[sel] = h_a + r * ((steps[sel] - m_a)[:, None] * self.dt)
+        if self.landing[i].any():  # a run that ends on a landing: on the limit, as now()
+            after = (which == len(hist) - 1) & (steps - hist[-1][0] >= 1.0)
+            lands = after[:, None] & self.landing[i]
+            out[lands] = np.broadcast_to(self.land_value[i], out.shape)[lands]
         return out
 
     def records(self, body: int | None, until: float = math.inf, index: int | None = None
