@@ -545,7 +545,10 @@ class WheelStepper(Stepper):
             done = 0
             while done < n:
                 before = self._wheels.copy()
-                length, changed = self._wheels.segment(self._wu, self._k, n - done)
+                # an ensemble's failed bodies are skipped: their wheels are held too
+                gone = None if self._n is None else self._status != S.STATUS_OK
+                u = self._wu if gone is None else np.where(gone[:, None], 0.0, self._wu)
+                length, changed = self._wheels.segment(u, self._k, n - done)
                 if changed.any():
                     self._write(changed)
                 try:
@@ -559,7 +562,24 @@ class WheelStepper(Stepper):
                     self._wheels = before
                     self._write()
                     raise
+                if gone is not None and np.any((self._status != S.STATUS_OK) & ~gone):
+                    self._hold((self._status != S.STATUS_OK) & ~gone, before, length)
                 done += length
+
+    def _hold(self, fresh: np.ndarray, before: WheelState, length: int) -> None:
+        """Bodies ``fresh`` failed in the last piece of ``length`` steps and were left at
+        their state before it: so are their wheels (held there, their records of the
+        piece dropped)."""
+        w = self._wheels
+        h = w.h_a.copy()
+        h[fresh] = before.now(self._k - length)[fresh]
+        w._anchor(fresh, h, self._k, np.zeros_like(w.rate))
+        for name in ("landing", "at_speed", "at_torque"):
+            getattr(w, name)[fresh] = getattr(before, name)[fresh]
+        w.landing[fresh] = False
+        w.events = before.events + [e for e in w.events[len(before.events):]
+                                    if not fresh[e[0]]]
+        self._write(fresh)
 
     @property
     def u(self) -> np.ndarray:

@@ -559,3 +559,29 @@ def test_a_run_that_ends_on_a_landing_step_ends_on_the_limit():
         assert tr.saturations == s.saturations == (Saturation(None, dt, 0, "speed"),)
         tr = liebody.integrate(scene, omega0=W0, dt=dt, steps=3, controls=[u])
         np.testing.assert_array_equal(tr.wheels[1:, 0], scene.momentum_limit[0])
+
+
+def test_an_ensemble_steppers_failed_body_keeps_its_wheels_with_its_state():
+    """A body of an ensemble Stepper that fails is left at its state before the call and
+    skipped afterwards: its wheels too (before the fix they went on turning, and
+    recording saturations, to the end of the run). Euler with a large step blows up body
+    1 in the first call and body 0 at t = 418 (integrate() agrees)."""
+    bodies = liebody.RigidBody.batch([[3.0, 5.0, 7.0], [3.0, 5.0, 7.0]])
+    scene = liebody.ReactionWheels(bodies, np.eye(3), 0.1, momentum=np.zeros((2, 3)),
+                                   max_speed=5.0)
+    L0 = [[0.01, 0.02, 0.03], [30.0, 50.0, 70.0]]
+    u = [[0.01, 0.0, 0.0]] * 2
+    with pytest.warns(RuntimeWarning, match="2 of 2 bodies failed"):
+        tr = liebody.integrate(scene, L0=L0, dt=1.0, steps=2000, method="euler",
+                               controls=u)
+    np.testing.assert_array_equal(tr.failed_at, [418.0, 9.0])
+    s = liebody.Stepper(scene, L0=L0, dt=1.0, method="euler", controls=u, simd=False)
+    with pytest.warns(RuntimeWarning, match="failed in this step"):
+        for _ in range(200):
+            s.step(10)
+    assert list(s.failed) == [True, True]
+    np.testing.assert_array_equal(s.L[1], L0[1])  # left before its first call
+    np.testing.assert_array_equal(s.wheel_momentum[1], 0.0)
+    np.testing.assert_array_equal(s.wheel_momentum[0], tr.wheels[0, 410])  # at t = 410
+    np.testing.assert_array_equal(s.L[0], tr.L[0, 410])
+    assert s.saturations == (Saturation(0, 50.0, 0, "speed"),) == tr.saturations
