@@ -54,6 +54,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
 )
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
+from liebody._ordering import ROWS_AT_ONCE
 from liebody._validate import F64, as_float_array, as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import (
@@ -75,6 +76,11 @@ MAX_STEPS = 2**53
 #: diagnostics, 353-754 B with, on free bodies, tops, gyrostats, user torques and the
 #: gravity gradient; ``tests/faults/test_memory.py``): an upper bound with a margin
 RUN_BYTES_PER_BODY = 1024
+#: bytes per body of the set-up's temporaries, for at most ``_ordering.ROWS_AT_ONCE``
+#: bodies at a time (the axis-ordering choice works through the bodies in chunks: about
+#: 1.2 kB a body, so that an ensemble below some 4e4 bodies peaked above
+#: :data:`RUN_BYTES_PER_BODY` per body): counted once per run, at most 12.6 MB
+SETUP_BYTES_PER_ROW = 1536
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
 
@@ -214,12 +220,14 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
     if per_body is None:
         per_body = 0 if bodies == 1 else RUN_BYTES_PER_BODY
     fixed = bodies * per_body
+    if bodies > 1:  # the set-up's temporaries, a chunk of bodies at a time
+        fixed += SETUP_BYTES_PER_ROW * min(bodies, ROWS_AT_ONCE)
     need = n_samples * per + fixed
     avail = None if need <= SMALL_RUN_BYTES else _available_memory()
     if avail is not None and fixed > avail:
         raise ValueError(
             f"{bodies:,} bodies need {per_body:,} B each beyond their samples (the run's "
-            f"state, plan and diagnostics: {fixed / 1e9:.3g} GB), more than the "
+            f"state, plan, set-up and diagnostics: {fixed / 1e9:.3g} GB), more than the "
             f"{avail / 1e9:.3g} GB of memory available; run fewer bodies per call (or "
             f"liebody.distributed)")
     if avail is not None and need > avail:

@@ -157,10 +157,12 @@ def test_the_check_counts_what_the_run_allocates_beyond_the_samples(monkeypatch)
                           dt=0.01, steps=3, method="splitting8", save_every=None)
     need = int(re.search(r"need ([0-9,]+) B each", str(info.value))[1].replace(",", ""))
     assert _integrate.RUN_BYTES_PER_BODY + row <= need <= _integrate.RUN_BYTES_PER_BODY + 4 * row
-    fits = 100_000_000 // (need + 2 * 7 * 8) - 2_000  # (two samples each; 9,000 bodies at
-    # a row per stage)
+    # (the set-up's temporaries counted once, for a chunk of bodies)
+    room = 100_000_000 - _integrate.SETUP_BYTES_PER_ROW * _integrate.ROWS_AT_ONCE
+    fits = room // (need + 2 * 7 * 8) - 2_000  # (two samples each; 9,000 bodies at a row
+    # per stage)
     # a few more do not fit with their two samples: no save_every helps, fewer bodies do
-    more = 100_000_000 // (need + 2 * 7 * 8) + 1_000
+    more = room // (need + 2 * 7 * 8) + 1_000
     with pytest.raises(ValueError, match=rf"{more:,} bodies need [0-9.]+ GB for their 2 "
                                          r"samples .* run fewer bodies per call"):
         liebody.integrate(liebody.FreeBody(liebody.RigidBody.batch(moments[:more])),
@@ -181,7 +183,9 @@ def test_a_refusal_suggests_no_saving_that_does_not_fit_either(monkeypatch):
     save every 10th step, or the final states only, which were then refused). With room
     for the two, the sparser saving suggested fits."""
     n = 200_000
-    per, fixed = _integrate._per_sample(n), n * _integrate.RUN_BYTES_PER_BODY
+    per = _integrate._per_sample(n)
+    fixed = (n * _integrate.RUN_BYTES_PER_BODY
+             + _integrate.SETUP_BYTES_PER_ROW * _integrate.ROWS_AT_ONCE)
     scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
     L0 = np.ones((n, 3))
     monkeypatch.setattr(_integrate, "_available_memory", lambda: fixed + 3 * per // 2)
@@ -234,3 +238,17 @@ def test_the_check_counts_the_rows_that_controls_per_body_make(monkeypatch):
     need = int(re.search(r"need ([0-9,]+) B each", str(info.value))[1].replace(",", ""))
     rows = liebody.methods()["splitting2"].plans(scene, L0[:2], 0.01)[0][1].params.shape[1]
     assert need == _integrate.RUN_BYTES_PER_BODY + rows * S.N_PARAMS * 8
+
+
+@pytest.mark.parametrize("n", [1_000, 8_000])
+def test_a_small_ensemble_allocates_what_the_check_counts(n):
+    """Below some 4e4 bodies the set-up's temporaries (the axis-ordering choice, a chunk of
+    up to ``ROWS_AT_ONCE`` bodies at a time, about 1.2 kB a body) are more than
+    ``RUN_BYTES_PER_BODY`` per body: the check counts them (it did not: 1.5-1.6 kB a
+    body measured at 1,000 bodies against 1,024 counted)."""
+    from liebody._ordering import ROWS_AT_ONCE
+
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    counted = (n * _integrate.RUN_BYTES_PER_BODY
+               + _integrate.SETUP_BYTES_PER_ROW * min(n, ROWS_AT_ONCE)) / n
+    assert _beyond_samples(scene, "splitting2", n) <= counted
