@@ -11,7 +11,10 @@ the body turns at ``omega = I^-1 (L - l)``, and
   free gyrostat.
 
 ``I`` is the inertia of the whole (body and rotors) about its centre of mass, in the
-principal frame of the :class:`~liebody.RigidBody`.
+principal frame of the :class:`~liebody.RigidBody`. The same equations hold for rotors
+spinning freely (no motor torque), whose *absolute* axial momenta are constant: then ``l``
+is that absolute momentum and ``I`` the inertia without the rotors' axial inertia (a
+:class:`~liebody.ReactionWheels` scene with its motors off gives these numbers).
 """
 
 from __future__ import annotations
