@@ -585,3 +585,68 @@ def test_an_ensemble_steppers_failed_body_keeps_its_wheels_with_its_state():
     np.testing.assert_array_equal(s.wheel_momentum[0], tr.wheels[0, 410])  # at t = 410
     np.testing.assert_array_equal(s.L[0], tr.L[0, 410])
     assert s.saturations == (Saturation(0, 50.0, 0, "speed"),) == tr.saturations
+
+
+def test_ensembles_in_orbit_with_per_body_wheels_equal_their_one_body_runs():
+    """Per-body inertia and wheel inertia, commands per body, limits, a gravity-gradient
+    source on all the mass, a start at t0 = 1.5: each body of integrate() equals its
+    one-body integrate() and its one-body Stepper (t set to 1.5, step(10) per sample)
+    bit for bit, with the same records (times from t0); the ensemble Stepper stepping one
+    step at a time (simd=False) equals the ensemble integrate()."""
+    b = math.radians(50.0)
+    axes = np.array([[math.cos(b) * math.cos(a), math.cos(b) * math.sin(a), math.sin(b)]
+                     for a in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi)])
+    J = np.array([np.full(4, 0.05), np.full(4, 0.08), np.full(4, 0.02)])
+    orbit = liebody.orbits.Circular(0.7, radius=1.3, inclination=0.4)
+    bodies = liebody.RigidBody.batch([I, [4.0, 5.0, 6.0], [3.5, 3.0, 6.0]])
+    scene = liebody.ReactionWheels(bodies, axes, J, momentum=0.1 * H4, sources=[(2.0, orbit)],
+                                   max_speed=10.0, max_torque=0.05)
+    u = np.array([[0.01, -0.02, 0.005, 0.015], [0.1, 0.0, 0.0, 0.0], [0.0, 0.0, -0.04, 0.03]])
+    tr = liebody.integrate(scene, q0=Q0, omega0=W0, dt=0.05, steps=400, save_every=10,
+                           controls=u, t0=1.5)
+    records = []
+    for i in range(3):
+        one = liebody.integrate(scene.take(i), q0=Q0, omega0=W0, dt=0.05, steps=400,
+                                save_every=10, controls=u[i], t0=1.5)
+        np.testing.assert_array_equal(tr.q[i], one.q)
+        np.testing.assert_array_equal(tr.L[i], one.L)
+        np.testing.assert_array_equal(tr.wheels[i], one.wheels)
+        s = liebody.Stepper(scene.take(i), q0=Q0, omega0=W0, dt=0.05, controls=u[i])
+        s.t = 1.5
+        for _ in range(40):
+            s.step(10)
+        np.testing.assert_array_equal(s.q, one.q[-1])
+        np.testing.assert_array_equal(s.L, one.L[-1])
+        np.testing.assert_array_equal(s.wheel_momentum, one.wheels[-1])
+        assert s.saturations == one.saturations
+        records += [e._replace(body=i) for e in one.saturations]
+    assert sorted(records) == sorted(tr.saturations) and len(records) == 4
+    assert min(e.t for e in records) == 1.5  # body 1's torque clipped from the start
+    s = liebody.Stepper(scene, q0=Q0, omega0=W0, dt=0.05, controls=u, simd=False)
+    s.t = 1.5
+    for _ in range(400):
+        s.step()
+    one = liebody.integrate(scene, q0=Q0, omega0=W0, dt=0.05, steps=400, controls=u, t0=1.5)
+    np.testing.assert_array_equal(s.q, one.q[:, -1])
+    np.testing.assert_array_equal(s.L, one.L[:, -1])
+    np.testing.assert_array_equal(s.wheel_momentum, one.wheels[:, -1])
+    assert set(s.saturations) == set(tr.saturations)
+
+
+def test_setting_the_wheel_momenta_keeps_the_total_momentum():
+    """Stepper.wheel_momentum = h re-anchors the wheels and keeps L, the total momentum
+    of body and wheels (an internal exchange): omega becomes I^-1 (L - A h), and the
+    spatial L stays put across the setting and the steps after it."""
+    axes = _skew_axes()
+    scene = liebody.ReactionWheels(BODY, axes, J4, momentum=H4)
+    s = liebody.Stepper(scene, q0=Q0, omega0=W0, dt=0.05, controls=[0.01, 0.0, -0.01, 0.0])
+    s.step(20)
+    L, Ls = s.L, _rot(s.q) @ s.L
+    s.wheel_momentum = [0.5, -0.5, 0.0, 0.2]
+    np.testing.assert_array_equal(s.L, L)
+    np.testing.assert_allclose(s.omega, (L - axes.T @ [0.5, -0.5, 0.0, 0.2]) / I, rtol=0,
+                               atol=1e-16)
+    s.step(100)
+    np.testing.assert_allclose(s.wheel_momentum, [0.5 + 0.05, -0.5, -0.05, 0.2], rtol=0,
+                               atol=1e-15)
+    np.testing.assert_allclose(_rot(s.q) @ s.L, Ls, rtol=0, atol=1e-14)
