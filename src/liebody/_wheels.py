@@ -584,7 +584,8 @@ class WheelStepper(Stepper):
     @property
     def u(self) -> np.ndarray:
         """The wheels' motor torques ``(k,)`` (``(N, k)`` for an ensemble), held over the
-        following steps (clipped to ``max_torque`` where the scene has one)."""
+        following steps: as commanded (the steps clip them to ``max_torque`` where the
+        scene has one, and record it in :attr:`saturations`)."""
         with self._lock:
             return (self._wu[0] if self._n is None else self._wu).copy()
 
