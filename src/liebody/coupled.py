@@ -427,21 +427,25 @@ def _proxy(moments):
 
 def _tables(scene, method, m0, h):
     """The driver's tables for ``scene`` under ``method`` (see ``_kernels.coupled.run``);
-    ``ValueError`` for a method that is not kicks between free flows."""
+    ``ValueError`` for a method whose step does not begin and end with a kick, free flows
+    between."""
     from liebody._kernels import stages as S
     from liebody._kernels.coupled import BLOCK, NOOP, ROWS  # noqa: F401
 
     allowed = {S.AXIS, S.AXIS_RECURRING, S.SPHERE, S.EXACT, S.DMV}
     try:
         groups = method.plans(_proxy(scene.moments), m0, h)
-    except ValueError as exc:
-        raise ValueError(f"{method.name}: {exc}") from None
+    except ValueError as exc:  # (its words name the method, as the caller's do)
+        raise ValueError(str(exc)) from None
     segs_all, kicks, times, merge = [], None, None, None
     for idx, plan in groups:
         kinds = plan.kinds.tolist()
-        if (not kinds or kinds[0] != S.KICK or kinds[-1] != S.KICK
-                or any(k not in allowed and k != S.KICK for k in kinds)):
-            raise ValueError(f"{method.name} is not kicks between free flows")
+        if any(k not in allowed and k != S.KICK for k in kinds):
+            raise ValueError(f"{method.name}'s step holds stages other than kicks and free "
+                             f"flows")
+        if not kinds or kinds[0] != S.KICK or kinds[-1] != S.KICK:
+            raise ValueError(f"{method.name}'s step begins or ends with a free flow, not a "
+                             f"kick")
         kc, kt, segs, t, cur = [], [], [], 0.0, []
         for j, k in enumerate(kinds):
             if k == S.KICK:
@@ -549,8 +553,9 @@ def _prepare(scene, method, q, m, dt) -> _Coupled:
     try:
         return _Coupled(scene, method, q, m, dt)
     except ValueError as exc:
-        raise ValueError(f"{method.name} does not run coupled bodies ({exc}): they run kicks "
-                         f"of the collective torque between the bodies' free flows, i.e. "
+        raise ValueError(f"{method.name} does not run coupled bodies ({exc}): they run steps "
+                         f"that begin and end with a kick of the collective torque, the "
+                         f"bodies' free flows between, i.e. "
                          f"{', '.join(supported_methods())}") from None
 
 
