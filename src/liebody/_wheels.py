@@ -484,7 +484,8 @@ def _ensemble(scene, method, q0, m0, dt, n_steps, save_every, progress, n, diagn
         a.flags.writeable = False
     sat.sort(key=lambda s: (s.t, s.body, s.wheel))
     return Trajectory((t if t0 == 0.0 else t0 + t), q, L, scene, method, dt,
-                      failed_at=failed_at, info=dict(info), status=status.astype(str),
+                      failed_at=failed_at, info=dict(info, simd=False),  # (no rotor in SIMD)
+                      status=status.astype(str),
                       diagnostics=diag or None, wheels=W, saturations=tuple(sat))
 
 

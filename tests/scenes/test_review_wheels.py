@@ -650,3 +650,16 @@ def test_setting_the_wheel_momenta_keeps_the_total_momentum():
     np.testing.assert_allclose(s.wheel_momentum, [0.5 + 0.05, -0.5, -0.05, 0.2], rtol=0,
                                atol=1e-15)
     np.testing.assert_allclose(_rot(s.q) @ s.L, Ls, rtol=0, atol=1e-14)
+
+
+def test_a_wheel_ensembles_info_says_the_simd_kernels_did_not_run():
+    """Trajectory.info["simd"] says whether the SIMD kernels ran (integrate()'s docs);
+    they do not run a moving rotor, so False for a wheel ensemble whatever simd asks, as
+    the Stepper's info says (before the fix the key was missing: KeyError)."""
+    bodies = liebody.RigidBody.batch([I, [4.0, 5.0, 6.0], [3.5, 3.0, 6.0], [5.0, 6.0, 7.0]])
+    scene = liebody.ReactionWheels(bodies, np.eye(3), 0.1, momentum=[0.1, 0.2, 0.3])
+    for simd in (None, True, False):
+        tr = liebody.integrate(scene, omega0=W0, dt=0.05, steps=10, simd=simd,
+                               controls=[0.01, 0.02, -0.03])
+        s = liebody.Stepper(scene, omega0=W0, dt=0.05, simd=simd)
+        assert tr.info["simd"] is False and s.info["simd"] is False
