@@ -663,3 +663,26 @@ def test_a_wheel_ensembles_info_says_the_simd_kernels_did_not_run():
                                controls=[0.01, 0.02, -0.03])
         s = liebody.Stepper(scene, omega0=W0, dt=0.05, simd=simd)
         assert tr.info["simd"] is False and s.info["simd"] is False
+
+
+@pytest.mark.parametrize("setter", ["L", "omega", "q", "t", "wheel_momentum"])
+def test_setting_the_steppers_state_mid_run_against_dop853(setter):
+    """After 100 steps, one of q, L, omega, t or the wheel momenta is set, then 100 more
+    steps of splitting6 (the rotor slots rewritten, the plan made again for L): against
+    DOP853 from the state set (measured 1e-15 to 4e-15)."""
+    axes = _skew_axes()
+    scene = liebody.ReactionWheels(BODY, axes, J4, momentum=H4)
+    u = np.array([0.01, -0.02, 0.005, 0.015])
+    s = liebody.Stepper(scene, q0=Q0, omega0=W0, dt=0.01, controls=u, method="splitting6")
+    s.step(100)
+    value = {"L": s.L + [0.1, 0.0, 0.0], "omega": [0.2, 0.1, -0.1],
+             "q": quaternion.exp([0.1, 0.1, 0.1]), "t": 7.0,
+             "wheel_momentum": [0.1, 0.2, 0.3, 0.4]}[setter]
+    setattr(s, setter, value)
+    q1, L1, h1, t1 = s.q, s.L, s.wheel_momentum, s.t
+    s.step(100)
+    q, L, h, _ = _reference(I, axes, q1, L1, h1, [(t1, t1 + 1.0, u)])
+    np.testing.assert_allclose(_same_sign(s.q, q), q, rtol=0, atol=2e-14)
+    np.testing.assert_allclose(s.L, L, rtol=0, atol=2e-14)
+    np.testing.assert_allclose(s.wheel_momentum, h, rtol=0, atol=1e-15)
+    assert s.t == pytest.approx(t1 + 1.0, rel=1e-15)
