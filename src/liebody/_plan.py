@@ -1165,7 +1165,19 @@ class Baseline(Recipe):
 
 def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, Plan]]:
     """The recipe's plans for the bodies ``b``: one per group of bodies whose steps share
-    a structure, with the indices of its bodies."""
+    a structure, with the indices of its bodies.
+
+    Bodies that carry a rotor and bodies that do not (a gyrostat ensemble with a zero
+    rotor momentum for some) are planned apart, each as its one-body call is: a rigid
+    body gets its own axis ordering and flows, not the gyrostat's ``(0, 1, 2)``
+    (:attr:`Bodies.has_rotor` speaks for the bodies it is asked about)."""
+    if len(b) > 1 and not b.moving_rotor and b.rotor.shape[0] == len(b):
+        rows = np.any(b.rotor != 0.0, axis=1)
+        if rows.any() and not rows.all():
+            out = []
+            for sel in (np.flatnonzero(~rows), np.flatnonzero(rows)):
+                out += [(sel[idx], plan) for idx, plan in plan_groups(recipe, b.take(sel), h)]
+            return out
     keys = np.asarray(recipe.keys(b, h))
     out = []
     for key in (keys.tolist() if len(keys) == 1 else np.unique(keys)):
