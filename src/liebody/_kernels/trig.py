@@ -74,8 +74,11 @@ def _wide_vectors_intrinsic():
 
         def codegen(context, builder, signature, args):
             # (llvmlite knows only keyword attributes; a string attribute is written
-            # into the function's attribute set as LLVM spells it)
-            set.add(builder.function.attributes, WIDE_VECTORS)
+            # into the function's attribute set as LLVM spells it. A hint: where an
+            # llvmlite keeps its attributes otherwise, the kernel compiles without it)
+            attrs = builder.function.attributes
+            if isinstance(attrs, set):
+                set.add(attrs, WIDE_VECTORS)
             return context.get_dummy_value()
 
         return types.void(), codegen
@@ -100,7 +103,9 @@ def _inline_into_callers_intrinsic():
         it in the kernel's own body."""
 
         def codegen(context, builder, signature, args):
-            builder.function.attributes.add("alwaysinline")
+            attrs = builder.function.attributes
+            if "noinline" not in attrs:  # (a hint: never a compile error)
+                attrs.add("alwaysinline")
             return context.get_dummy_value()
 
         return types.void(), codegen
