@@ -34,9 +34,10 @@ static inline void axis_flow(double *q, double *m, int k, double rate, double ta
     double w = q[0], x = q[1], y = q[2], z = q[3];
     double s2, c2, cm2;
     if (half * half < 0.01) {
-        double z2 = half * half;
-        double sp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, S6, S5), S4), S3), S2), S1);
-        double cp = fma(z2, fma(z2, fma(z2, fma(z2, fma(z2, C6, C5), C4), C3), C2), C1);
+        /* the polynomials in Estrin's scheme, as liebody's trig.sincos_turn */
+        double z2 = half * half, z4 = z2 * z2;
+        double sp = fma(z4, fma(z4, fma(z2, S6, S5), fma(z2, S4, S3)), fma(z2, S2, S1));
+        double cp = fma(z4, fma(z4, fma(z2, C6, C5), fma(z2, C4, C3)), fma(z2, C2, C1));
         s2 = fma(half, z2 * sp, half);
         cm2 = z2 * fma(z2, cp, -0.5);
         c2 = 1.0 + cm2;

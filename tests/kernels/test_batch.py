@@ -504,6 +504,48 @@ def test_fast_sincos_pairs_are_normalised_far_below_round_off():
 
 
 @pytest.mark.kernel
+def test_the_one_body_turns_pair_is_correctly_rounded_to_an_ulp():
+    """``trig.sincos_turn`` (the one-body small turn's pair, ``|x| < 0.1``: the fdlibm
+    polynomials in Estrin's scheme, for a shorter dependency chain): ``sin x`` and
+    ``cos x - 1`` within an ulp of the correctly rounded values (mpmath, 40 digits), and
+    the pair's norm error ``s^2 + (1 + cm)^2 - 1`` (exact, in rationals) at the level
+    ``eps s^2``, with no bias, as Horner's evaluation of the same polynomials."""
+    import mpmath
+    from numba import njit
+
+    from liebody._kernels.trig import sincos_small_raw, sincos_turn
+
+    @njit
+    def pairs(x, estrin):
+        out = np.empty((x.shape[0], 3))
+        for i in range(x.shape[0]):
+            r = sincos_turn(x[i]) if estrin else sincos_small_raw(x[i])
+            out[i, 0], out[i, 1], out[i, 2] = r[0], r[1], r[2]
+        return out
+
+    rng = np.random.default_rng(11)
+    x = np.concatenate([rng.uniform(-0.1, 0.1, 600), [1e-300, -1e-9, 0.0999999, 1e-5]])
+    got = pairs(x, True)
+    mpmath.mp.dps = 40
+    for v, (s, _, cm) in zip(x, got, strict=True):
+        exact_s, exact_cm = mpmath.sin(mpmath.mpf(v)), mpmath.cos(mpmath.mpf(v)) - 1
+        # (an ulp from the correctly rounded value: 1.5 ulp from the exact one)
+        assert abs(mpmath.mpf(s) - exact_s) <= 1.5 * np.spacing(abs(float(exact_s))), v
+        assert abs(mpmath.mpf(cm) - exact_cm) <= 1.5 * np.spacing(abs(float(exact_cm))), v
+    big = np.abs(x) > 1e-3
+    s, cm = got[big, 0], got[big, 2]
+    norm = np.array([float(Fraction(a) ** 2 + Fraction(b) * (2 + Fraction(b)))
+                     for a, b in zip(s, cm, strict=True)])
+    rel = norm / (EPS * s * s)
+    horner = pairs(x[big], False)
+    ref = np.array([float(Fraction(a) ** 2 + Fraction(b) * (2 + Fraction(b)))
+                    for a, b in zip(horner[:, 0], horner[:, 2], strict=True)]) / (EPS * s * s)
+    assert np.max(np.abs(rel)) <= max(2.0, np.max(np.abs(ref)))
+    assert abs(np.mean(rel)) < 0.1
+    np.testing.assert_array_equal(got[:, 1], 1.0 + got[:, 2])
+
+
+@pytest.mark.kernel
 def test_fast_sincos_at_the_edges():
     x = np.array([0.0, -0.0, 5e-324, 1e-300, 1e15, 1e300, -1e300, math.inf, -math.inf,
                   math.nan])

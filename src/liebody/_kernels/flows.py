@@ -48,7 +48,7 @@ from liebody._kernels.stages import (
     TORQUE_NONE,
 )
 from liebody._kernels.torque import damping_rate, torque_value
-from liebody._kernels.trig import fma, inline_into_callers, sincos_small, sincos_small_raw
+from liebody._kernels.trig import fma, inline_into_callers, sincos_small, sincos_turn
 
 #: a recurring rotation whose squared half angle is at least this (a turn of 1 rad or more
 #: per step) keeps ``q`` on the unit sphere (``qproject_unit``); below, the increment
@@ -81,7 +81,7 @@ def axis_flow(w, x, y, z, m1, m2, m3, axis, rate, tau):
     same small angle recurs step after step, and the plain form's ``cos``, rounded to the
     grid near 1, drifted ``|q|`` and ``|m|`` linearly (3.4e-11 per 1e6 steps). A small
     turn (``|half| < 0.1``) takes ``(sin, cos, cos - 1)`` from the polynomial
-    :func:`~liebody._kernels.trig.sincos_small_raw` (no libm call; its pair's norm error,
+    :func:`~liebody._kernels.trig.sincos_turn` (no libm call; its pair's norm error,
     ``eps sin^2``, is far below round-off), a larger one libm's sin and cos.
     """
     return _rigid_turn(w, x, y, z, m1, m2, m3, axis,
@@ -93,7 +93,7 @@ def _rigid_turn(w, x, y, z, m1, m2, m3, axis, half):
     """:func:`axis_flow`'s turn by ``2 half``, in increment form (a large one from libm's
     sin and cos)."""
     if half * half < COMPENSATED_TURN:
-        s2, c2, cm2 = sincos_small_raw(half)
+        s2, c2, cm2 = sincos_turn(half)
     else:
         s2 = math.sin(half)
         c2 = math.cos(half)
