@@ -1170,12 +1170,14 @@ def plan_groups(recipe: Recipe, b: Bodies, h: float) -> list[tuple[np.ndarray, P
     Bodies that carry a rotor and bodies that do not (a gyrostat ensemble with a zero
     rotor momentum for some) are planned apart, each as its one-body call is: a rigid
     body gets its own axis ordering and flows, not the gyrostat's ``(0, 1, 2)``
-    (:attr:`Bodies.has_rotor` speaks for the bodies it is asked about)."""
+    (:attr:`Bodies.has_rotor` speaks for the bodies it is asked about). The gyrostats
+    first: a method that refuses them refuses the ensemble as a gyrostat, not with a
+    refusal of the rigid bodies' step that numbers a body by its place among them."""
     if len(b) > 1 and not b.moving_rotor and b.rotor.shape[0] == len(b):
         rows = np.any(b.rotor != 0.0, axis=1)
         if rows.any() and not rows.all():
             out = []
-            for sel in (np.flatnonzero(~rows), np.flatnonzero(rows)):
+            for sel in (np.flatnonzero(rows), np.flatnonzero(~rows)):
                 out += [(sel[idx], plan) for idx, plan in plan_groups(recipe, b.take(sel), h)]
             return out
     keys = np.asarray(recipe.keys(b, h))

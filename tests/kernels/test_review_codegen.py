@@ -306,3 +306,23 @@ def test_a_mixed_gyrostat_ensembles_diagnostics_equal_its_one_body_runs():
         for key, value in tr.diagnostics.items():
             np.testing.assert_array_equal(np.asarray(value)[i],
                                           np.asarray(one.diagnostics[key]), err_msg=key)
+
+
+@pytest.mark.parametrize("method", ["dmv4", "dmv8"])
+def test_a_mixed_gyrostat_ensemble_is_refused_as_a_gyrostat_not_by_a_bodys_step(method):
+    """A method that refuses gyrostats refuses a Gyrostat ensemble with some rotor-free
+    bodies as a gyrostat, as it did before such bodies were planned apart: not with the
+    rotor-free bodies' own refusal, which named a body by its place among them (here
+    'for 1 of 3 bodies (e.g. body 2)' for the ensemble's body 3, the step too large for
+    preprocessed DMV) and sent the user to reduce a step that would not help."""
+    I = np.array([[1.0, 2.0, 3.0]] * 4)
+    l = np.zeros((4, 3))
+    l[1] = [0.5, 0.1, 0.0]
+    scene = liebody.Gyrostat(liebody.RigidBody.batch(I), l)
+    L0 = np.array([[0.1, 0.1, 0.1], [1.0, 1.0, 1.0], [0.1, 0.2, 0.1], [2.0, 2.0, 2.0]])
+    with pytest.raises(ValueError, match=r"rigid body's flow, not a gyrostat's") as info:
+        liebody.integrate(scene, L0=L0, dt=2.0, steps=1, method=method, simd=False)
+    assert "too large" not in str(info.value)
+    # (each rotor-free body alone: the step's own refusal, by its own number)
+    with pytest.raises(ValueError, match=r"too large for preprocessed DMV"):
+        liebody.integrate(scene.take(3), L0=L0[3], dt=2.0, steps=1, method=method)
