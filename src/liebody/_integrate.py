@@ -219,17 +219,17 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
     per = _per_sample(bodies)
     if per_body is None:
         per_body = 0 if bodies == 1 else RUN_BYTES_PER_BODY
-    fixed = bodies * per_body
-    if bodies > 1:  # the set-up's temporaries, a chunk of bodies at a time
-        fixed += SETUP_BYTES_PER_ROW * min(bodies, ROWS_AT_ONCE)
+    # the set-up's temporaries, a chunk of bodies at a time
+    setup = SETUP_BYTES_PER_ROW * min(bodies, ROWS_AT_ONCE) if bodies > 1 else 0
+    fixed = bodies * per_body + setup
     need = n_samples * per + fixed
     avail = None if need <= SMALL_RUN_BYTES else _available_memory()
     if avail is not None and fixed > avail:
         raise ValueError(
             f"{bodies:,} bodies need {per_body:,} B each beyond their samples (the run's "
-            f"state, plan, set-up and diagnostics: {fixed / 1e9:.3g} GB), more than the "
-            f"{avail / 1e9:.3g} GB of memory available; run fewer bodies per call (or "
-            f"liebody.distributed)")
+            f"state, plan and diagnostics) and {setup / 1e6:.3g} MB for the set-up "
+            f"({fixed / 1e9:.3g} GB in all), more than the {avail / 1e9:.3g} GB of memory "
+            f"available; run fewer bodies per call (or liebody.distributed)")
     if avail is not None and need > avail:
         # suggest a save_every whose samples take at most half the memory left
         fit = max(1, (avail - fixed) // (2 * per) - 1)

@@ -326,3 +326,30 @@ def test_a_mixed_gyrostat_ensemble_is_refused_as_a_gyrostat_not_by_a_bodys_step(
     # (each rotor-free body alone: the step's own refusal, by its own number)
     with pytest.raises(ValueError, match=r"too large for preprocessed DMV"):
         liebody.integrate(scene.take(3), L0=L0[3], dt=2.0, steps=1, method=method)
+
+
+# ------------------------------------------------------------------ the memory check
+
+
+def test_the_memory_refusal_adds_up_to_what_it_counts(monkeypatch):
+    """The refusal of too many bodies states what it counts, and its numbers add up:
+    ``N`` bodies times the bytes each, plus the set-up's temporaries (counted once, for
+    ``min(N, ROWS_AT_ONCE)`` bodies), make the total it gives. (It gave the total with the
+    set-up in it beside ``N`` times the bytes each, which did not make it.)"""
+    from liebody import _integrate
+    from liebody._ordering import ROWS_AT_ONCE
+
+    monkeypatch.setattr(_integrate, "_available_memory", lambda: 100_000_000)
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    n = 200_000
+    with pytest.raises(ValueError, match=r"bodies need") as info:
+        liebody.integrate(scene, L0=np.ones((n, 3)), dt=0.01, steps=3, save_every=None)
+    text = str(info.value)
+    m = re.search(r"([0-9,]+) bodies need ([0-9,]+) B each beyond their samples .*? and "
+                  r"([0-9.]+) MB for the set-up \(([0-9.]+) GB in all\)", text)
+    assert m, text
+    bodies, each = (int(m[i].replace(",", "")) for i in (1, 2))
+    setup, total = float(m[3]) * 1e6, float(m[4]) * 1e9
+    assert bodies == n
+    assert setup == pytest.approx(_integrate.SETUP_BYTES_PER_ROW * ROWS_AT_ONCE, rel=5e-3)
+    assert total == pytest.approx(bodies * each + setup, rel=5e-3)
