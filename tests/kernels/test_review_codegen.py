@@ -99,6 +99,67 @@ def test_a_mark_in_a_numba_inlined_function_lands_on_its_caller():
     assert "alwaysinline" in attrs
 
 
+@pytest.mark.skipif(not JIT, reason="needs the compiled kernels")
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 assembly")
+def test_a_mark_in_an_overload_or_an_inlined_kernel_keeps_its_loops_wide():
+    """``wide_vectors`` in an overload's implementation, or in a kernel that LLVM inlines
+    into an unmarked caller, still widens its own loop: numba optimises (and vectorises)
+    each function in its own module before the caller inlines it, so the caller's
+    preference (no merge rule for the attribute) does not undo it. Without the mark the
+    same loop runs on ymm registers (an AVX-512 target)."""
+    from numba.core.registry import cpu_target
+
+    features = cpu_target.target_context.codegen().magic_tuple()[2].split(",")
+    if "+avx512f" not in features:
+        pytest.skip("numba compiles for a CPU without AVX-512 here")
+    import numba
+    from numba.extending import overload
+
+    from liebody._kernels.trig import wide_vectors
+
+    def axpy(a, b, n):  # pragma: no cover - replaced by its overload
+        pass
+
+    def axpy_plain(a, b, n):  # pragma: no cover - replaced by its overload
+        pass
+
+    def loop(mark):
+        def impl(a, b, n):
+            if mark:
+                wide_vectors()
+            for i in range(n):
+                a[i] = a[i] * b[i] + 1.5 * b[i]
+        return impl
+
+    overload(axpy)(lambda a, b, n: loop(True))
+    overload(axpy_plain)(lambda a, b, n: loop(False))
+    kernel = numba.njit(loop(True))
+
+    @numba.njit
+    def via_overload(a, b, n):
+        axpy(a, b, n)
+
+    @numba.njit
+    def via_plain(a, b, n):
+        axpy_plain(a, b, n)
+
+    @numba.njit
+    def via_kernel(a, b, n):
+        kernel(a, b, n)
+
+    packed = re.compile(r"\bv?(?:mul|add|fn?m(?:add|sub)\d*)pd\s+.*?%([xyz]mm)\d")
+    regs = {}
+    for f in (via_overload, via_plain, via_kernel):
+        a, b = np.zeros(64), np.ones(64)
+        f(a, b, 64)
+        assert np.array_equal(a, np.full(64, 1.5))
+        regs[f.__name__] = set(packed.findall(f.inspect_asm(f.signatures[0])))
+        calls = re.findall(r"call [^\n]*@_ZN\S*4impl", f.inspect_llvm(f.signatures[0]))
+        assert not calls, (f.__name__, calls)  # (inlined by LLVM)
+    assert "zmm" in regs["via_overload"] and "zmm" in regs["via_kernel"], regs
+    assert "zmm" not in regs["via_plain"], regs
+
+
 # ------------------------------------------------------------------ SIMD blocks
 
 
