@@ -435,8 +435,10 @@ def _tables(scene, method, m0, h):
     allowed = {S.AXIS, S.AXIS_RECURRING, S.SPHERE, S.EXACT, S.DMV}
     try:
         groups = method.plans(_proxy(scene.moments), m0, h)
-    except ValueError as exc:  # (its words name the method, as the caller's do)
-        raise ValueError(str(exc)) from None
+    except ValueError as exc:  # (the caller's words name the method: not again here)
+        words = str(exc)
+        prefix = f"{method.name}: "
+        raise ValueError(words[len(prefix):] if words.startswith(prefix) else words) from None
     segs_all, kicks, times, merge = [], None, None, None
     for idx, plan in groups:
         kinds = plan.kinds.tolist()
