@@ -48,7 +48,12 @@ class Trajectory:
         complete run. For an ensemble, an array ``(N,)``: that time per body, NaN for
         bodies that completed.
     info : dict
-        Choices made at set-up (axis ordering, base of a composition, ...).
+        Choices made at set-up (axis ordering, base of a composition, ...). For the
+        axis splittings, ``energy_error_constant`` is the range over the orbit of the
+        leading term of the modified Hamiltonian of the ordering chosen (the energy
+        error is about ``h^2`` times it; Fassò 2003); NaN for a gyrostat, whose
+        ordering is fixed at ``(0, 1, 2)`` (the choice weighs the rigid body's
+        splitting error, which does not apply).
     status : str
         ``"complete"``; ``"failed"`` (a non-finite state, a failed implicit solve or a
         failing torque: the samples stop before the failing step); ``"interrupted"``
