@@ -9,7 +9,7 @@ time ``t``) and the control inputs ``u`` of a :class:`~liebody.ControlledBody` c
 read and set.
 
 A long ``step(n)`` runs in slices of steps sized by their measured cost (each about
-:data:`_SLICE_SECONDS` of wall time), so that Ctrl-C, which Python sees only between
+:data:`~liebody._engine.SLICE_SECONDS` of wall time), so that Ctrl-C, which Python sees only between
 calls into compiled code, stops it soon whatever a step costs. The drivers carry their
 control across slices, so the slices change no bit of the result. On Ctrl-C the steps
 finished are kept (a step whose last stage was merged with the next step's first is
@@ -28,7 +28,16 @@ import warnings
 import numpy as np
 
 from liebody import _methods
-from liebody._engine import FINAL, N_STEPS, STEP0, T0, batch_args, groups_info, one_body_args
+from liebody._engine import (
+    FINAL,
+    N_STEPS,
+    STEP0,
+    T0,
+    batch_args,
+    groups_info,
+    next_slice,
+    one_body_args,
+)
 from liebody._engine import entry_point as _entry_point
 from liebody._kernels import stages as S
 from liebody._validate import as_float_array, as_positive_float, as_positive_int
@@ -38,13 +47,9 @@ from liebody.scenes import Scene
 
 __all__ = ["Stepper"]
 
-#: wall time one kernel slice of a long ``step(n)`` aims at (Ctrl-C is seen between
-#: slices)
-_SLICE_SECONDS = 0.2
-#: body-steps in the first slice of a stepper that has not measured its cost yet
+#: body-steps in the first slice of a stepper that has not measured its cost yet (the
+#: later ones: ``_engine.next_slice``, about ``_engine.SLICE_SECONDS`` each)
 _FIRST_WORK = 64
-#: a slice is at most this many times the previous one (the first ones are noisy)
-_GROWTH = 16
 
 
 def _join(pool) -> None:
@@ -228,6 +233,7 @@ class Stepper:
         self._pool = None
         self._lock = threading.RLock()  # step() and the state, one thread at a time
         self._size = max(1, _FIRST_WORK // (self._n or 1))  # the next slice, in steps
+        self._last_slice = None  # the last slice's (steps, seconds): engine.next_slice
 
     # ------------------------------------------------------------------ set-up
     def _plan(self, momentum: np.ndarray | None = None) -> None:
@@ -377,7 +383,7 @@ class Stepper:
 
     def _one(self, n: int) -> None:
         """One body: the compiled driver on the state, in slices of about
-        :data:`_SLICE_SECONDS` that carry the driver's control across (so the slices
+        :data:`~liebody._engine.SLICE_SECONDS` that carry the driver's control across (so the slices
         change no bit of the result).
 
         The countdown to the next save starts at ``n + 1``, which no step reaches (the
@@ -401,8 +407,8 @@ class Stepper:
                                           *tail)
                 if status != S.STATUS_OK:
                     break
-                rate = k / max(time.perf_counter() - t, 1e-7)
-                size = int(min(max(rate * _SLICE_SECONDS, 1.0), _GROWTH * max(k, size)))
+                size, self._last_slice = next_slice(k, time.perf_counter() - t, size,
+                                                    self._last_slice)
                 self._size = size
                 done += k
             else:
@@ -497,7 +503,7 @@ class Stepper:
 
     def _advance(self, n: int) -> None:
         """``n`` steps of the batch driver of each group (for one body, the one body),
-        chunks of bodies over threads, in slices of about :data:`_SLICE_SECONDS`."""
+        chunks of bodies over threads, in slices of about :data:`~liebody._engine.SLICE_SECONDS`."""
         work = self._work
         call = {"n": n, "steps0": self._steps, "k0": self._k, "issued": [],
                 "starts": [g["state"].copy() for g in self._groups],
@@ -519,9 +525,9 @@ class Stepper:
                 call["issued"].append((done, k, final))
                 start = time.perf_counter()
                 self._slice(call, done, k, final)
-                rate = k / max(time.perf_counter() - start, 1e-7)
                 # (a call's last slice may be short: it measures, it does not cap)
-                size = int(min(max(rate * _SLICE_SECONDS, 1.0), _GROWTH * max(k, size)))
+                size, self._last_slice = next_slice(k, time.perf_counter() - start, size,
+                                                    self._last_slice)
                 self._size = size
                 done += k
         except KeyboardInterrupt:
@@ -934,6 +940,7 @@ class Stepper:
         self._t0, self._k, self._steps = state["t0"], state["k"], state["steps"]
         self._ready()
         self._size = state["size"]
+        self._last_slice = None
         self._plan(state["plan_m"])  # the plan the original runs (not re-planned)
         if state["stale"]:
             self._stale, self._fast = True, False

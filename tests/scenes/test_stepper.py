@@ -192,7 +192,7 @@ def test_slices_change_no_bit(case, monkeypatch):
     np.testing.assert_array_equal(whole.q, ref.q[..., -1, :])
 
     calls = []
-    monkeypatch.setattr(_stepper, "_SLICE_SECONDS", 1e-12)
+    monkeypatch.setattr(_engine, "SLICE_SECONDS", 1e-12)
     cut = liebody.Stepper(sc, dt=dt, method=method, **kw, **extra)
     if cut.n_bodies is None:
         inner = cut._call
@@ -222,7 +222,7 @@ def test_slices_change_no_bit(case, monkeypatch):
 
 def test_slices_grow_with_the_measured_rate():
     """A cheap step: a long call takes few slices (the first small, then sized for about
-    _SLICE_SECONDS each), not one slice per 64 steps."""
+    SLICE_SECONDS each), not one slice per 64 steps."""
     s = liebody.Stepper(_free(), L0=[0.3, -1.0, 0.6], dt=0.01, method="splitting2")
     calls = []
     inner = s._call
@@ -235,7 +235,7 @@ def test_slices_grow_with_the_measured_rate():
     s.step(200_000)
     assert sum(calls) == 200_000
     assert calls[0] <= _stepper._FIRST_WORK and len(calls) <= 8
-    assert all(b <= _stepper._GROWTH * a for a, b in itertools.pairwise(calls))
+    assert all(b <= _engine.SLICE_GROWTH * a for a, b in itertools.pairwise(calls))
 
 
 # ----------------------------------------------------------------------- 2/3. Ctrl-C
@@ -591,3 +591,29 @@ def test_a_stepper_ensemble_fails_a_body_whose_torque_fails_at_its_start_alone()
     with pytest.warns(RuntimeWarning):
         st.step(5)
     assert list(st.failed) == [True, False, False]
+
+
+@pytest.mark.parametrize(("fixed", "per_step"), [(0.17, 0.004), (0.0, 1e-4), (0.05, 1e-6)])
+def test_slices_outgrow_a_fixed_cost_per_call(monkeypatch, fixed, per_step):
+    """A call of k steps costing ``fixed + per_step k`` (a million satellites of per-body
+    inertia on one thread: 0.17 s of set-up per call, 4 ms a step): after a few slices
+    each slice holds about SLICE_SECONDS of stepping beyond the fixed cost. Sized by the
+    rate alone they stayed at one step (each step paid the set-up: 176 ns a body-step
+    instead of 8); without a fixed cost the sizes are the rate's, as before."""
+    class Clock:
+        now = 0.0
+
+        def perf_counter(self):
+            return self.now
+
+    clock = Clock()
+    monkeypatch.setattr(_engine, "time", clock)
+    sizes = []
+    for k in _engine.time_slices(10**9, False, "step", first=1):
+        sizes.append(k)
+        clock.now += fixed + per_step * k
+        if len(sizes) == 10:
+            break
+    assert sizes[-1] == pytest.approx(_engine.SLICE_SECONDS / per_step, rel=0.03)
+    assert all(b <= _engine.SLICE_GROWTH * a for a, b in itertools.pairwise(sizes))
+    assert fixed + per_step * max(sizes) <= fixed + 2 * _engine.SLICE_SECONDS
