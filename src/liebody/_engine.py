@@ -192,32 +192,19 @@ def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE)
         from tqdm.auto import tqdm
 
         bar = tqdm(total=total, unit=unit, unit_scale=True)
-    done, sizer = 0, SliceSizer(first)
+    done, size, last = 0, max(1, int(first)), None
     try:
         while done < total:
-            n = min(sizer.size, total - done)
+            n = min(size, total - done)
             start = time.perf_counter()
             yield n
             done += n
             if bar is not None:
                 bar.update(n)
-            sizer.measured(n, time.perf_counter() - start)
+            size, last = next_slice(n, time.perf_counter() - start, size, last)
     finally:
         if bar is not None:
             bar.close()
-
-
-class SliceSizer:
-    """The sizes of a run's slices (:func:`next_slice`), the first ``first`` units."""
-
-    def __init__(self, first: int) -> None:
-        self.size = max(1, int(first))
-        self._last: tuple | None = None
-
-    def measured(self, k: int, seconds: float) -> int:
-        """Record a slice of ``k`` units that took ``seconds``; returns the next size."""
-        self.size, self._last = next_slice(k, seconds, self.size, self._last)
-        return self.size
 
 
 def next_slice(k: int, seconds: float, size: int, last: tuple | None) -> tuple[int, tuple]:

@@ -55,13 +55,11 @@ def _llvm_fma(typingctx, a, b, c):
 WIDE_VECTORS = '"prefer-vector-width"="512"'
 
 
-def _wide_vectors_py():
+def _no_mark():
     """Uncompiled: nothing to mark (:func:`wide_vectors`, :func:`inline_into_callers`)."""
 
 
 def _wide_vectors_intrinsic():
-    from numba.extending import intrinsic
-
     @intrinsic
     def wide_vectors(typingctx):
         """Mark the kernel whose body calls this to vectorise its loops with 512-bit
@@ -87,12 +85,10 @@ def _wide_vectors_intrinsic():
 
 
 #: ``wide_vectors()``: the SIMD kernels' first statement (:func:`_wide_vectors_intrinsic`)
-wide_vectors = _wide_vectors_py if config.DISABLE_JIT else _wide_vectors_intrinsic()
+wide_vectors = _no_mark if config.DISABLE_JIT else _wide_vectors_intrinsic()
 
 
 def _inline_into_callers_intrinsic():
-    from numba.extending import intrinsic
-
     @intrinsic
     def inline_into_callers(typingctx):
         """Mark the kernel whose body calls this for LLVM to inline wherever it is called
@@ -115,8 +111,7 @@ def _inline_into_callers_intrinsic():
 
 #: ``inline_into_callers()``: a kernel's first statement
 #: (:func:`_inline_into_callers_intrinsic`); uncompiled, nothing
-inline_into_callers = _wide_vectors_py if config.DISABLE_JIT else \
-    _inline_into_callers_intrinsic()
+inline_into_callers = _no_mark if config.DISABLE_JIT else _inline_into_callers_intrinsic()
 
 
 @overload(fma, jit_options=overload_options())
@@ -191,7 +186,8 @@ def sincos_turn(x):
     """:func:`sincos_small_raw` with the polynomials evaluated in Estrin's scheme: the
     same coefficients, the terms paired as ``(a + b z) + z^2 ((c + d z) + z^2 (e + f z))``,
     so that the chain from ``x`` to the pair is three fused multiply-adds shorter than
-    Horner's (a few ulps either way; the pair's norm error stays ``eps sin^2``-small).
+    Horner's (within an ulp of the correctly rounded values and with the pair's norm
+    error ``eps sin^2``-small, as Horner's).
     The one-body axis turn takes it: its step is a chain of dependent turns, so the
     latency is its cost (``splitting2`` on a free body 52 -> 46 ns a step); the SIMD
     loops, bound by throughput, keep Horner's (one multiplication fewer)."""
