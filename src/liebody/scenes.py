@@ -580,9 +580,9 @@ class TorqueBody(Scene):
                                len(flat))
             return vals.reshape(q.shape[:-1])
         t = float(t)
-        if self.params.ndim == 1:
+        if self.params.ndim == 1 or self.params.shape[0] == 1:  # one row for every body
             flat = q.reshape(-1, 4)
-            p = self.params
+            p = self.params.reshape(-1)
             vals = np.fromiter((float(self.potential_fn(t, row, p)) for row in flat), float,
                                len(flat))
             return vals.reshape(q.shape[:-1])
