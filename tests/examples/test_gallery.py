@@ -1,8 +1,9 @@
 """Every gallery example runs as a script and passes the physics checks written in it.
 
 The documentation build executes them too (sphinx-gallery); this runs them in the test
-suite so that a broken example fails without building the site. The Monte Carlo and
-the controller examples have their own tests (tests/scenes).
+suite so that a broken example fails without building the site. The Monte Carlo
+example has its own test (tests/scenes/test_monte_carlo_example.py), which runs it with
+fewer bodies.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pathlib import Path
 import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-OWN_TESTS = {"plot_monte_carlo_flips.py", "plot_detumbling_controller.py"}
+OWN_TESTS = {"plot_monte_carlo_flips.py"}
 SCRIPTS = sorted(p.name for p in EXAMPLES.glob("plot_*.py") if p.name not in OWN_TESTS)
 
 
