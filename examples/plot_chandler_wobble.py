@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import liebody
-from liebody import analysis, bodies
+from liebody import analysis, bodies, quaternion
 
 earth = bodies.earth()
 day = bodies.SIDEREAL_DAY
@@ -78,8 +78,8 @@ fig.tight_layout()
 #
 # The exact flow keeps the energy and the spatial angular momentum to round-off; from
 # space, the figure axis and the rotation axis precess about the fixed ``L`` about once
-# a day, on cones of half-angles close to the offset and to ``H`` times the offset
-# (:func:`liebody.analysis.cone_angles`).
+# a day, on cones of half-angles ``(1 - H)`` times the offset and ``H`` times the offset
+# (:func:`liebody.analysis.cone_angles`); the run's angles to ``L`` are those.
 
 E = traj.energy
 Ls = traj.L_space
@@ -89,4 +89,17 @@ assert np.ptp(E) / E[0] < 1e-14
 assert np.ptp(Ls, axis=0).max() / np.linalg.norm(Ls[0]) < 1e-14
 cones = analysis.cone_angles(earth.moments[0], earth.moments[2],
                              spin * np.sin(offset), spin * np.cos(offset))
-print(f"cones: {cones}")
+H = (earth.moments[2] - earth.moments[0]) / earth.moments[2]
+L_hat = Ls / np.linalg.norm(Ls, axis=1, keepdims=True)
+figure_axis = quaternion.rotate(traj.q, [0.0, 0.0, 1.0])
+rotation_axis = traj.omega_space / np.linalg.norm(traj.omega_space, axis=1, keepdims=True)
+to_L = {name: np.arcsin(np.linalg.norm(np.cross(v, L_hat), axis=1))  # small angles
+        for name, v in (("figure", figure_axis), ("rotation", rotation_axis))}
+print(f"figure axis to L:   {to_L['figure'].max():.6e} rad; (1 - H) offset "
+      f"{(1 - H) * offset:.6e}; cone_angles {cones.theta:.6e}")
+print(f"rotation axis to L: {to_L['rotation'].max():.6e} rad; H offset "
+      f"{H * offset:.6e}; cone_angles {cones.space_cone:.6e}")
+np.testing.assert_allclose(to_L["figure"], cones.theta, rtol=1e-9)
+np.testing.assert_allclose(to_L["rotation"], cones.space_cone, rtol=1e-9)
+np.testing.assert_allclose([cones.theta, cones.space_cone], [(1 - H) * offset, H * offset],
+                           rtol=1e-6)

@@ -42,7 +42,7 @@ L0 = thermal_momenta(lattice.moments, 1e-3, rng=2)
 
 start = time.perf_counter()
 traj = liebody.integrate(lattice, q0=q0, L0=L0, dt=0.005, t_end=60.0, save_every=20)
-print(f"{n} rotors, {len(traj.t) * 20} steps: {time.perf_counter() - start:.2f} s")
+print(f"{n} rotors, {(len(traj.t) - 1) * 20} steps: {time.perf_counter() - start:.2f} s")
 
 E, V = traj.energy, traj.potential_energy
 T = traj.temperature

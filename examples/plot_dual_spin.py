@@ -5,11 +5,13 @@ A dual-spin satellite: a rotor stabilises the intermediate axis
 A rigid body spinning about its axis of intermediate moment is unstable: it flips (the
 tennis racket theorem, Hand & Finch ch. 8). A spacecraft with a rotor spinning inside it
 along that axis, a dual-spin satellite or gyrostat, is not: with the rotor's momentum
-``h`` along the spin axis the linearised motion of ``L' = L x I^-1 (L - l)`` nutates at
+``h`` along the spin axis the linearised motion of ``L' = L x I^-1 (L - l)`` obeys
+``L_1'' = -kappa L_1`` with
 
-``kappa = ((I2 - I1) omega + h) ((I2 - I3) omega + h) / (I1 I3)``,
+``kappa = ((I2 - I1) omega + h) ((I2 - I3) omega + h) / (I1 I3)``:
 
-stable when both factors have one sign, so when ``h > (I3 - I2) omega``
+stable, nutating at ``sqrt(kappa)``, when both factors have one sign, so (for ``h >= 0``)
+when ``h > (I3 - I2) omega``; otherwise the tilt grows at ``sqrt(-kappa)``
 (Hughes, *Spacecraft Attitude Dynamics*, 1986, ch. 7). :class:`liebody.Gyrostat`
 integrates the gyrostat with the axis splitting of ``H = (L - l)^T I^-1 (L - l) / 2``;
 :func:`liebody.analysis.dual_spin_stable` gives the linear theory.
@@ -33,6 +35,10 @@ for h in (0.0, 10.0, 40.0):
     L0 = np.array([nudge, moments[1] * omega + h, nudge])
     traj = liebody.integrate(scene, L0=L0, dt=0.01, t_end=400.0, save_every=20)
     theory = analysis.dual_spin_stable(moments, omega, 1, h)
+    I1, I2, I3 = moments
+    kappa = ((I2 - I1) * omega + h) * ((I2 - I3) * omega + h) / (I1 * I3)
+    assert theory.stable == (kappa > 0)
+    np.testing.assert_allclose(theory.rate, np.sqrt(abs(kappa)), rtol=1e-12)
     off = np.hypot(traj.L[:, 0], traj.L[:, 2]) / np.linalg.norm(L0)
     print(f"h = {h:5.1f}: linear theory {'stable' if theory.stable else 'unstable'} "
           f"(rate {theory.rate:.3f} rad/s); largest tilt of L from the axis: {off.max():.3f}")

@@ -42,6 +42,18 @@ separatrix = 1.0 / (2 * moments[1])
 print(f"separatrix energy |L|^2/(2 I2) = {separatrix:.6f}")
 print("orbit energies:", np.round(energy[:, 0], 4))
 
+# the last two orbits start 0.05 off axis 1 and off axis 2. The first is a small closed
+# loop about axis 1 whose L3 reaches the sphere and ellipsoid's intersection at L2 = 0,
+# L3^2 = (1/I1 - 2T) / (1/I1 - 1/I3); the second runs along the separatrix to the
+# opposite side of the sphere
+near_1, near_2 = traj.L[-2], traj.L[-1]
+T1 = energy[-2, 0]
+L3_max = np.sqrt((1 / moments[0] - 2 * T1) / (1 / moments[0] - 1 / moments[2]))
+print(f"off axis 1: largest L3 {np.abs(near_1[:, 2]).max():.6f}, closed form {L3_max:.6f}; "
+      f"off axis 2: L2 from {near_2[0, 1]:.3f} down to {near_2[:, 1].min():.3f}")
+np.testing.assert_allclose(np.abs(near_1[:, 2]).max(), L3_max, rtol=1e-4)
+assert near_1[:, 0].min() > np.cos(0.1) and near_2[:, 1].min() < -0.9
+
 # %%
 # The sphere, the separatrices and the polhodes
 # ---------------------------------------------
