@@ -10,7 +10,7 @@ turning points decides the curve the apex draws on the sphere: **loops** when it
 **cusps** when it vanishes at the upper turning point (a top released from rest), and
 **waves** when it never does. Three tops, the same but for their initial precession
 rate, integrated with ``splitting2`` and checked against the analysis of
-:mod:`liebody.lagrange_top`.
+:mod:`liebody.lagrange_top` (the turning points and the nutation period).
 """
 
 # %%
@@ -24,8 +24,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import liebody
+from liebody import analysis, quaternion
 from liebody import lagrange_top as lt
-from liebody import quaternion
 
 top = liebody.HeavyTop(liebody.RigidBody([1.0, 1.0, 0.4]), mass=1.0, cm=[0.0, 0.0, 1.0],
                        g=9.81)
@@ -51,6 +51,11 @@ for name, phidot in starts.items():
     assert band.theta1 - 1e-6 < theta.min() < band.theta1 + 1e-4
     assert band.theta2 - 1e-4 < theta.max() < band.theta2 + 1e-6
     assert np.ptp(traj.energy) / abs(traj.energy[0]) < 1e-5  # bounded: the splitting
+    # the tilt crosses the middle of its band twice a nutation period: every other
+    # crossing is one period of the analysis apart
+    crossings = analysis.zero_crossings(traj.t, theta - 0.5 * (band.theta1 + band.theta2))
+    np.testing.assert_allclose(crossings[2:] - crossings[:-2], motion.nutation_period(),
+                               rtol=1e-4)
     runs[name] = traj
 
 # %%
