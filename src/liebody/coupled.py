@@ -90,7 +90,8 @@ class CoupledBodies:
         :class:`liebody.RigidBody` (principal frames; the centres are fixed).
     torque
         A numba-compiled function ``torque(t, q, L, params, out)`` that writes every
-        body's torque, in its own body frame, into ``out`` ``(N, 3)``, from the
+        body's torque, in its own body frame, into ``out`` ``(N, 3)`` (zeros at every
+        call: a loop over pairs may accumulate into it with ``+=``), from the
         orientations ``q`` ``(N, 4)`` (unit quaternions, scalar first, body to space: the
         state's ``q / |q|``), the body-frame
         angular momenta ``L`` ``(N, 3)`` (for the signature only: the torque of a

@@ -129,8 +129,9 @@ call_coupled = _call_py if config.DISABLE_JIT else _call_intrinsic()
 @jit
 def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
     """``L_i += tau N_i(t, q_1..q_N)`` for every body, ``q`` fixed (the torque sees the unit
-    quaternions ``q / |q|``); returns the first body whose torque (or kicked ``L``) is not
-    finite, -1 for none; ``lmax[b]``: the largest ``|L|`` of block ``b`` after the kick."""
+    quaternions ``q / |q|`` and ``out`` cleared to zeros); returns the first body whose
+    torque (or kicked ``L``) is not finite, -1 for none; ``lmax[b]``: the largest ``|L|``
+    of block ``b`` after the kick."""
     for b in range(bufs.shape[0]):
         buf = bufs[b]
         for i in range(blk_n[b]):
@@ -142,6 +143,7 @@ def _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t, tau, lmax):
             n = math.sqrt(w * w + x * x + y * y + z * z)
             Q[k, 0], Q[k, 1], Q[k, 2], Q[k, 3] = w / n, x / n, y / n, z / n
             Lm[k, 0], Lm[k, 1], Lm[k, 2] = buf[M10 + i], buf[M20 + i], buf[M30 + i]
+            out[k, 0] = out[k, 1] = out[k, 2] = 0.0  # (a torque may accumulate: out += ...)
     call_coupled(addr, t, Q, Lm, params, out)
     bad = -1
     for b in range(bufs.shape[0]):
