@@ -11,12 +11,15 @@ whole ensemble) and the warnings are those of the local call.
 
 The client does everything that can fail before the run, as the local call does:
 it validates every argument, checks that the client is a running
-``dask.distributed.Client``, plans the ensemble (``info``, and a step the method
-refuses), and refuses a run whose gathered samples do not fit in its memory, or
-whose tasks' samples do not fit in a worker's memory limit, before any task is
-submitted. The tasks only run: a body that fails on a worker (a non-finite state, an
-unsolved implicit equation, a torque that fails, even at the initial state) fails
-alone, with its status and time, as in the local call.
+``dask.distributed.Client``, calls the scene's own functions on the initial state
+(a user torque of the wrong shape or that reads ``L`` though the scene promises
+``orientation_only``, a user potential that fails), warns where the exact flow's
+phase is lost, plans the ensemble (``info``, and a step the method refuses), and
+refuses a run whose gathered samples do not fit in its memory, or whose tasks'
+samples do not fit in a worker's memory limit, before any task is submitted. The
+tasks only run: a body that fails on a worker (a non-finite state, an unsolved
+implicit equation, a torque that fails, even at the initial state) fails alone, with
+its status and time, as in the local call.
 
 Tasks are pure functions of their inputs, so a worker lost mid-run loses nothing: the
 scheduler recomputes its chunks on the workers that are left.
@@ -148,6 +151,10 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
         RUN_BYTES_PER_BODY,
         _bodies,
         _check_batch,
+        _check_phase,
+        _check_potential,
+        _check_torque,
+        _first_row,
         _initial_momentum,
         _sample_times,
         _stage_bytes_per_body,
@@ -167,6 +174,12 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     dt = as_positive_float("dt", dt)
     if t0 != 0.0:
         t0 = float(as_float_array("t0", t0, shape=()))
+        if t0 + dt == t0:  # (the local call's refusal and words)
+            raise ValueError(
+                f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64 (times near t0 are "
+                f"{math.ulp(t0):.3g} apart), so the clock could not advance. Measure the "
+                f"time from a later origin (subtract a reference time from t0), or use a "
+                f"dt above {0.5 * math.ulp(t0):.3g}")
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(diagnostics, bool | np.bool_):
@@ -180,9 +193,19 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
                          "integrate one body with liebody.integrate")
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
+    # the local call's checks of the scene's own functions on the initial state, before
+    # any task: a user potential that fails, the exact flow's lost phase (a warning), a
+    # torque of the wrong shape or that breaks its orientation_only promise
+    model = scene.torque_model()
+    _check_potential(scene, model, q, n, t0)
     u = as_controls(scene, controls, n)
+    if method.sampled:
+        _check_phase(scene, m, n_steps * dt)
     q = np.ascontiguousarray(np.broadcast_to(q, (n, 4)))
     m = np.ascontiguousarray(np.broadcast_to(m, (n, 3)))
+    _check_torque(model, q[0], m[0], _first_row(u), float(t0), ensemble=True,
+                  orientation_only=(model.function is not None
+                                    and "momentum" not in scene.capabilities.torque))
     # the local call's memory check (its words too): the samples and each body's other
     # arrays (gathered, only the samples come back to this process)
     t = (_sample_times(n_steps, save_every, dt, n,

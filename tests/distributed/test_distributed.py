@@ -411,3 +411,72 @@ def test_info_is_the_local_calls_with_global_body_numbers(inproc):
     one = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=1, simd=False,
                                         **kw)
     _assert_local(one, liebody.integrate(scene, simd=False, **kw))
+
+
+# ----------------------------------------------------------------------------------------
+# the local call's checks of the scene's own functions, on the client
+# ----------------------------------------------------------------------------------------
+
+
+def _depends_on_L(t, q, L):
+    """Promised orientation-only, but reads L: the explicit kicks would be wrong."""
+    return -0.3 * L
+
+
+def _small_tilt(t, q, L):
+    return np.array([0.1 * q[1], 0.1 * q[2], -0.1 * q[3]])
+
+
+def _nan_potential(q):
+    return float("nan")
+
+
+def _check_cases():
+    """name -> (scene, the call's arguments): each refused by the local call before its
+    run (the torque's false promise, the potential at the initial state, a clock that
+    cannot advance)."""
+    from numba import njit
+
+    body = liebody.RigidBody([1.0, 2.0, 2.5])
+    L0 = np.random.default_rng(5).normal(size=(6, 3))
+    kw = {"L0": L0, "dt": 0.01, "steps": 10, "method": "splitting2"}
+    return {
+        "orientation_only promise": (
+            liebody.TorqueBody(body, njit(_depends_on_L), orientation_only=True), kw),
+        "potential": (liebody.TorqueBody(body, njit(_small_tilt), potential=_nan_potential,
+                                         orientation_only=True), kw),
+        "t0 + dt == t0": (liebody.FreeBody(body), {**kw, "t0": 1e17}),
+    }
+
+
+@pytest.mark.parametrize("case", ["orientation_only promise", "potential", "t0 + dt == t0"])
+def test_the_local_calls_checks_of_the_scene_are_made_on_the_client(inproc, monkeypatch,
+                                                                    case):
+    """A torque that reads L though the scene promises orientation_only, a potential that
+    is not finite at the initial orientation and t0 = 1e17 with dt = 0.01 (t0 + dt == t0)
+    are refused by the local call, with these words; the cluster refused none of them
+    (before): it ran the false promise's explicit kicks (a first-order method, without a
+    word), the NaN potential, and a clock that never advanced."""
+    scene, kw = _check_cases()[case]
+    with pytest.raises(ValueError) as local:
+        liebody.integrate(scene, **kw)
+    _no_tasks(inproc, monkeypatch)
+    with pytest.raises(ValueError) as remote:
+        liebody.distributed.integrate(scene, client=inproc, **kw)
+    assert str(remote.value) == str(local.value)
+
+
+def test_the_exact_flows_lost_phase_is_reported_as_by_the_local_call(inproc):
+    """The exact flow asked for a phase |omega| t beyond float64's resolution: the local
+    call warns (RuntimeWarning); the cluster's result came without it (before)."""
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    kw = {"L0": np.random.default_rng(5).normal(size=(4, 3)) * 1e10, "dt": 1e6,
+          "steps": 10, "method": "exact"}
+    with pytest.warns(RuntimeWarning, match="float64 rounds an angle") as local_w:
+        local = liebody.integrate(scene, **kw)
+    with pytest.warns(RuntimeWarning, match="float64 rounds an angle") as remote_w:
+        remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=3, **kw)
+    assert ([str(w.message) for w in remote_w if "rounds an angle" in str(w.message)]
+            == [str(w.message) for w in local_w if "rounds an angle" in str(w.message)])
+    np.testing.assert_array_equal(remote.q, local.q)
+
