@@ -16,10 +16,12 @@ it validates every argument, checks that the client is a running
 ``orientation_only``, a user potential that fails), warns where the exact flow's
 phase is lost, plans the ensemble (``info``, and a step the method refuses), and
 refuses a run whose gathered samples do not fit in its memory, or whose tasks'
-samples do not fit in a worker's memory limit, before any task is submitted. The
-tasks only run: a body that fails on a worker (a non-finite state, an unsolved
-implicit equation, a torque that fails, even at the initial state) fails alone, with
-its status and time, as in the local call.
+samples do not fit in a worker's memory limit, before any task is submitted.
+Reaction wheels (:class:`~liebody.ReactionWheels`) are refused: their runs are
+cut where the wheels saturate and return the wheels' momenta, which the tasks do not
+do. The tasks only run: a body that fails on a worker (a non-finite state, an
+unsolved implicit equation, a torque that fails, even at the initial state) fails
+alone, with its status and time, as in the local call.
 
 Tasks are pure functions of their inputs, so a worker lost mid-run loses nothing: the
 scheduler recomputes its chunks on the workers that are left.
@@ -193,6 +195,11 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
                          "integrate one body with liebody.integrate")
     method = _methods.get(scene.default_method if method is None else method)
     _methods.check_supports(method, scene)
+    if scene.moving_rotor:
+        raise ValueError(f"liebody.distributed.integrate does not run {type(scene).__name__} "
+                         f"scenes (reaction wheels: the local call cuts each body's run where "
+                         f"its wheels saturate and returns their momenta and saturations); "
+                         f"use liebody.integrate")
     # the local call's checks of the scene's own functions on the initial state, before
     # any task: a user potential that fails, the exact flow's lost phase (a warning), a
     # torque of the wrong shape or that breaks its orientation_only promise

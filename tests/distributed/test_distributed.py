@@ -480,3 +480,19 @@ def test_the_exact_flows_lost_phase_is_reported_as_by_the_local_call(inproc):
             == [str(w.message) for w in local_w if "rounds an angle" in str(w.message)])
     np.testing.assert_array_equal(remote.q, local.q)
 
+
+def test_reaction_wheels_are_refused_before_any_task(inproc, monkeypatch):
+    """The local call of a ReactionWheels ensemble cuts each body's run where its wheels
+    saturate and returns the wheels' momenta; the tasks ran it as a rigid body (before):
+    q 0.1 away from the local call's after 10 s, and no wheel momenta. Refused now, by
+    name."""
+    craft = liebody.ReactionWheels(liebody.RigidBody([10.0, 12.0, 8.0]), np.eye(3), 0.01,
+                                   momentum=[0.1, -0.2, 0.3], max_torque=0.05,
+                                   max_speed=600.0)
+    kw = {"omega0": np.random.default_rng(1).normal(scale=0.1, size=(4, 3)), "dt": 0.1,
+          "steps": 100, "save_every": 50}
+    assert liebody.integrate(craft, **kw).wheels.shape == (4, 3, 3)
+    _no_tasks(inproc, monkeypatch)
+    with pytest.raises(ValueError, match=r"does not run ReactionWheels scenes.*use "
+                                         r"liebody\.integrate"):
+        liebody.distributed.integrate(craft, client=inproc, **kw)
