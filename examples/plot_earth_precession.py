@@ -19,9 +19,10 @@ arcseconds in obliquity.
 
 Here the Sun and the Moon are where an ephemeris puts them: the positions come from
 `pyerfa <https://pypi.org/project/pyerfa/>`_ (the ERFA library of the IAU SOFA
-algorithms) and enter the integrator as :class:`liebody.orbits.Table` orbits, sampled
-positions interpolated inside the compiled kernels. A century of the rigid Earth's
-rotation, spinning once a sidereal day, is integrated at a step of 0.02 day.
+algorithms; not a dependency of liebody: ``pip install pyerfa``) and enter the integrator
+as :class:`liebody.orbits.Table` orbits, sampled positions interpolated inside the
+compiled kernels. A century of the rigid Earth's rotation, spinning once a sidereal day,
+is integrated at a step of 0.02 day.
 """
 
 # %%
