@@ -271,16 +271,16 @@ class DipoleLattice(CoupledBodies):
             raise ValueError(f"dipoles must have shape (3,) or (N, 3) = ({n}, 3), got "
                              f"{d.shape}")
         d = np.broadcast_to(d, (n, 3))
-        spread = float(np.ptp(s, axis=0).max()) if n > 1 else 1.0
-        if n > 1:
-            order = np.lexsort(s.T[::-1])
-            gaps = np.linalg.norm(np.diff(s[order], axis=0), axis=1)
-            close = neighbours(s, max(1e-9 * spread, 1e-300)) if np.any(
-                gaps <= 1e-9 * spread) else None
-            if close is not None and np.any(close >= 0):
-                i = int(np.argmax((close >= 0).any(axis=1)))
-                raise ValueError(f"sites must be distinct: sites {i} and {int(close[i, 0])} "
-                                 f"coincide (closer than 1e-9 of the lattice's size)")
+        if n > 1:  # every pair within 1e-9 of the size (a k-d tree: N log N)
+            from scipy.spatial import cKDTree
+
+            spread = float(np.ptp(s, axis=0).max())
+            pairs = cKDTree((s - s.min(axis=0)) / spread).query_pairs(
+                1e-9, output_type="ndarray") if spread > 0 else np.array([[0, 1]])
+            if len(pairs):
+                i, j = min(map(tuple, np.sort(pairs, axis=1).tolist()))
+                raise ValueError(f"sites must be distinct: sites {i} and {j} coincide "
+                                 f"(closer than 1e-9 of the lattice's size)")
         if cutoff is None:
             nb = np.zeros((n, 0), dtype=np.int64)
             count = np.full(n, -1.0)

@@ -79,10 +79,13 @@ def test_a_torque_that_accumulates_into_out_starts_from_zero_at_every_kick():
 def test_sites_closer_than_the_rule_are_refused_wherever_they_sort():
     """The rule (no two sites closer than 1e-9 of the lattice's size) was checked only
     between neighbours in lexicographic order: sites 0 and 2 below, 1e-12 apart, have
-    (0, 1, 0) between them in that order and were accepted (V = 1.4e36)."""
+    (0, 1, 0) between them in that order and were accepted (V = 1.4e36); three sites in
+    one place (the lattice's size 0) were accepted too (V = NaN)."""
     bodies = liebody.RigidBody.batch(np.tile([1.0, 2.0, 3.0], (3, 1)))
     with pytest.raises(ValueError, match="sites must be distinct: sites 0 and 2"):
         DipoleLattice(bodies, [[0, 0, 0], [0, 1, 0], [1e-12, 0, 0]], [0, 0, 1])
+    with pytest.raises(ValueError, match="sites must be distinct: sites 0 and 1"):
+        DipoleLattice(bodies, [[1, 1, 1]] * 3, [0, 0, 1])
     # far apart by the rule: accepted, and the energy is the pair sum
     sites = np.array([[0, 0, 0], [0, 1, 0], [2e-9, 0, 0]]) * 1.0
     lat = DipoleLattice(bodies, sites, [0, 0, 1])
