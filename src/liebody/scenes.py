@@ -248,7 +248,7 @@ class TorqueModel:
         controls, zero when not given); raises what the torque raises."""
         args = [t, q.copy(), L.copy()]
         if self.takes_params:
-            args.append(self.row(i).copy())
+            args.append(self.row(i))  # (read-only, as the kernels pass it)
         if self.controls:
             args.append(np.zeros(self.controls) if u is None
                         else np.array(u[:self.controls], dtype=float))
@@ -507,8 +507,9 @@ class TorqueBody(Scene):
         Optional parameters of the torque: an array ``(k,)`` shared by every body, or
         ``(N, k)`` one row per body (the inertia of each Monte Carlo case, say). With
         ``params`` the torque is ``torque(t, q, L, p)`` (and ``torque(t, q, L, p, u)`` for
-        a :class:`ControlledBody`), ``p`` the body's row (a read-only view: do not write to
-        it), and a batch of rows makes the scene an ensemble of ``N`` bodies.
+        a :class:`ControlledBody`), ``p`` the body's row, read-only (the run's own
+        numbers: a torque that writes to ``p`` is refused with ``TypeError``; copy it to
+        change numbers), and a batch of rows makes the scene an ensemble of ``N`` bodies.
     orientation_only
         Promise that the torque does not depend on ``L`` (it may depend on ``t`` and
         ``q``). Then each kick (``q`` fixed, ``L += dt * torque``) is the exact flow of the
@@ -944,7 +945,8 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
     it); a test call that raises or gives another shape (``ValueError``); and, with
     controls or parameters, Python code that raises ``IndexError`` on the test inputs
     (``ValueError`` saying how many entries ``u`` and ``p`` have: compiled, numba does not
-    check bounds and would read other memory).
+    check bounds and would read other memory); with parameters, a torque that writes to
+    ``p`` (``TypeError``: ``p`` is passed read-only, the run's own row).
     """
     args = "t, q, L" + (", p" if params is not None else "") + (", u" if controls else "")
     from numba.core.config import DISABLE_JIT  # @njit gives plain functions then
@@ -953,16 +955,24 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
         raise TypeError(f"torque must be a numba @njit function torque({args}) returning "
                         f"the body-frame torque, got {type(torque).__name__}")
     test = (0.0, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
-    if params is not None:
-        test += (np.array(params.reshape(-1, params.shape[-1])[0]),)
+    if params is not None:  # read-only, as the kernels pass it (the run's own row)
+        row = np.ascontiguousarray(params.reshape(-1, params.shape[-1])[0])
+        row.flags.writeable = False
+        test += (row,)
     if controls:
         test += (np.zeros(controls),)
     try:
         tau = np.asarray(torque(*test))
-    except IndexError as exc:
-        raise ValueError(f"torque({args}) failed on a test call: IndexError: {exc} "
-                         f"({_input_sizes(controls, params)})") from exc
     except Exception as exc:
+        if params is not None and _writes_read_only(exc):
+            raise TypeError(
+                f"torque({args}) writes to p, the body's row of params: p is read-only (the "
+                f"run's parameters, kept by the scene: a write would change them for the "
+                f"steps, bodies and runs after it); copy it first (p.copy()) to change "
+                f"numbers") from exc
+        if isinstance(exc, IndexError):
+            raise ValueError(f"torque({args}) failed on a test call: IndexError: {exc} "
+                             f"({_input_sizes(controls, params)})") from exc
         raise ValueError(f"torque({args}) failed on a test call: {exc}") from exc
     overloads = getattr(torque, "overloads", {})
     if (getattr(torque, "targetoptions", {}).get("forceobj")
@@ -990,6 +1000,14 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
                 f"@njit(boundscheck=True) to find the line)") from exc
         except Exception:  # code that only runs compiled: the compiled test call passed
             pass
+
+
+def _writes_read_only(exc: BaseException) -> bool:
+    """Whether ``exc`` says that the code wrote to a read-only array: numba's typing error
+    (``setitem`` of a readonly array), or NumPy's (the torque as plain Python)."""
+    text = str(exc)
+    return ("readonly array" in text and "setitem" in text) or (
+        isinstance(exc, ValueError) and "read-only" in text)
 
 
 def _input_sizes(controls: int, params) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 from numba import njit
 
 import liebody
@@ -60,3 +61,51 @@ def test_one_shared_row_of_params_gives_every_body_its_energy():
     np.testing.assert_allclose(traj.energy, expected, rtol=1e-14, atol=1e-14)
     # and the energy is kept, as the symplectic splitting keeps it
     assert np.abs(traj.energy - traj.energy[:, :1]).max() < 1e-3
+
+
+@njit
+def _writes_p(t, q, L, p):
+    p[0] += 1.0
+    return np.array([0.0, 0.0, 0.01 * p[0]])
+
+
+@njit
+def _writes_p_controlled(t, q, L, p, u):
+    p[1] = u[0]
+    return np.zeros(3)
+
+
+def test_a_torque_that_writes_to_its_params_is_refused_by_name():
+    """p is the run's own row, kept by the scene (memoised model): a torque that wrote to it
+    changed the parameters for every later step and run (the scene's model held 23.0 after
+    one run of 10 steps from 1.0, while scene.params still said 1.0). It is refused at
+    construction, the message naming p and the rule."""
+    with pytest.raises(TypeError, match=r"writes to p.*read-only.*p\.copy\(\)"):
+        liebody.TorqueBody(BODY, _writes_p, params=[1.0, 2.0], orientation_only=True)
+    with pytest.raises(TypeError, match=r"_writes|writes to p"):
+        liebody.ControlledBody(BODY, _writes_p_controlled, controls=1, params=[[1.0, 2.0]])
+
+
+@njit
+def _copies_p(t, q, L, p):
+    c = p.copy()
+    c[0] += 1.0
+    return np.array([0.0, 0.0, 0.01 * c[0]])
+
+
+@njit
+def _fixed_torque(t, q, L):
+    return np.array([0.0, 0.0, 0.01 * 2.0])
+
+
+def test_a_torque_that_copies_its_params_runs_and_keeps_them():
+    scene = liebody.TorqueBody(BODY, _copies_p, params=[1.0, 2.0], orientation_only=True)
+    a = liebody.integrate(scene, L0=[1.0, 0.0, 0.0], dt=0.01, steps=10)
+    b = liebody.integrate(scene, L0=[1.0, 0.0, 0.0], dt=0.01, steps=10)
+    np.testing.assert_array_equal(a.L, b.L)
+    np.testing.assert_array_equal(scene.torque_model().params, [[1.0, 2.0]])
+    # the torque read p[0] = 1 at every kick: the run of its constant compiled in
+    fixed = liebody.integrate(liebody.TorqueBody(BODY, _fixed_torque, orientation_only=True),
+                              L0=[1.0, 0.0, 0.0], dt=0.01, steps=10)
+    np.testing.assert_array_equal(a.L, fixed.L)
+    np.testing.assert_array_equal(a.q, fixed.q)

@@ -27,6 +27,10 @@ MOMENTUM = True
 TORQUE_SIG = types.UniTuple(types.float64, 3)(
     *([types.float64] * (8 + N_CONTROLS)), types.CPointer(types.float64), types.intp)
 
+#: the type of a body's parameter row ``p`` as the user's torque receives it: read-only (it
+#: is the run's, shared by its bodies and kept by the scene)
+ROW = types.Array(types.float64, 1, "C", readonly=True)
+
 #: address -> adapter, for the uncompiled kernels (NUMBA_DISABLE_JIT=1) and to keep
 #: every adapter alive for as long as the drivers may call its address
 _ADAPTERS: dict = {}
@@ -39,10 +43,11 @@ def adapt_user_torque(user, controls: int = 0, params: bool = False):
     and with ``controls = k`` (1 to ``N_CONTROLS``) the first ``k`` control inputs ``u``
     last: ``torque(t, q, L, u)`` or ``torque(t, q, L, p, u)``. The wrapper builds the
     ``q``, ``L`` (and ``u``) arrays for each call (small allocations per torque
-    evaluation, the price of the friendly signature; ``p`` is a view of the body's
-    parameter row). A callback cannot raise, so a torque that raises, or returns
-    anything but three numbers, yields NaN: the driver stops at that step
-    (``STATUS_TORQUE``) and the Python side calls the torque again to raise its error.
+    evaluation, the price of the friendly signature; ``p`` is the body's parameter row,
+    read-only: a torque that writes to it does not compile). A callback cannot raise, so
+    a torque that raises, or returns anything but three numbers, yields NaN: the driver
+    stops at that step (``STATUS_TORQUE``) and the Python side calls the torque again to
+    raise its error.
     The adapter is kept for the life of the process (its address is what the drivers
     call).
     """
@@ -80,7 +85,9 @@ def adapt_user_torque(user, controls: int = 0, params: bool = False):
 
     from numba import njit
 
-    inner = njit(evaluate)  # (uncached, as the callback: the user's function is new)
+    # (uncached, as the callback: the user's function is new; ``p`` typed read-only, so
+    # that a torque writing to the run's parameters does not compile)
+    inner = njit(TORQUE_SIG.return_type(*TORQUE_SIG.args[:-2], ROW))(evaluate)
 
     def body(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, pp, k):
         return inner(t, w, x, y, z, m1, m2, m3, u0, u1, u2, u3, u4, u5, carray(pp, (k,)))
@@ -145,7 +152,11 @@ def adapt_user_block(user, controls: int = 0, params: bool = False) -> int:
 
     from numba import njit
 
-    inner = njit(evaluate)  # (uncached, as the callback: the user's function is new)
+    c1, c2 = types.Array(types.float64, 1, "C"), types.Array(types.float64, 2, "C")
+    # (uncached, as the callback; the parameters typed read-only, as in adapt_user_torque)
+    inner = njit(types.void(types.float64, types.intp, c1, *([types.intp] * 7), c2,
+                            types.Array(types.float64, 2, "C", readonly=True),
+                            types.Array(types.int64, 1, "C"), c2))(evaluate)
 
     def body(t, nb, stp, n_state, w0, x0, y0, z0, a0, b0, c0, Up, Pp, n_rows, k, rowsp, outp,
              ostride):
