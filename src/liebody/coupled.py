@@ -514,7 +514,7 @@ class _Coupled:
         self.Q = np.empty((n, 4))
         self.Lm = np.empty((n, 3))
         self.out = np.empty((n, 3))
-        self.ctl = np.array([1, 0], dtype=np.int64)
+        self.ctl = np.array([1, 0, 0], dtype=np.int64)
         self.set_state(q0, m0)
 
     def set_state(self, q, m):
@@ -600,7 +600,6 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     """:func:`liebody.integrate` for :class:`CoupledBodies` (after the shared checks)."""
     from liebody import _methods
     from liebody._engine import interrupt_after_call, time_slices
-    from liebody._kernels import stages as S
 
     method = _methods.get(scene.default_method if method is None else method)
     q, m = _initial(scene, q0, L0, omega0)
@@ -610,7 +609,7 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     k = t.shape[0]
     q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))
     q_out[:, 0], m_out[:, 0] = q, m
-    run.ctl[:] = (save_every, 0)
+    run.ctl[:2] = (save_every, 0)
     done = saved = 0
     status, body = 0, -1
     try:
@@ -629,35 +628,51 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
             f"{method.name}: interrupted after {done:,} of {n_steps:,} steps; the "
             f"{1 + saved:,} samples so far are on this exception's .trajectory", traj, done,
             t0 + done * dt) from None
-    if status == S.STATUS_NO_CONVERGENCE:
-        tf = t0 + done * dt
-        traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
-                           m_out[:, :1 + saved].copy(), "failed", tf + dt)
-        raise ConvergenceError(
-            f"{method.name}: the implicit DMV (RATTLE) equation of body {body} has no "
-            f"solution in step {done + 1:,} (t = {tf:.6g}); reduce dt (h |omega| must stay "
-            f"below about 1); the {1 + saved:,} samples before it are on this exception's "
-            f".trajectory", traj, done, tf)
     if status != 0:
         tf = t0 + done * dt
         traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
                            m_out[:, :1 + saved].copy(), "failed", tf + dt)
-        qs, ms = run.state()
-        cause = None
-        try:
-            scene.evaluate_torque(qs, ms, tf)
-        except Exception as exc:
-            cause = exc
-        raise TorqueError(
-            f"{method.name}: the coupled torque (or the momentum it kicked) was not finite "
-            f"for body {body} in step {done + 1:,} (t = {tf:.6g})"
-            + (f": {type(cause).__name__}: {cause}" if cause is not None else "")
-            + f"; the {1 + saved:,} samples before it are on this exception's .trajectory",
-            traj, done, tf) from cause
+        raise _failure(run, status, body, t0, done, f"in step {done + 1:,} (t = {tf:.6g})",
+                       f"the {1 + saved:,} samples before it are on this exception's "
+                       f".trajectory", traj, done)
     traj = _trajectory(scene, method, dt, t0, t, q_out, m_out, "complete",
                        info={"groups": len(set(run.blk_group.tolist()))})
     _check_energy(traj)
     return traj
+
+
+def _failure(run, status, body, t0, done, where, then, traj, step):
+    """The error of a run stopped in step ``done`` (counted from ``t0``) with ``status``,
+    ``body`` the first failing body; ``where`` (the step) and ``then`` (what is kept) end
+    the message. A torque that raised has
+    its own exception as the cause: it is called again with the inputs of the failing
+    kick (its time, and the ``q / |q|`` and ``L`` the driver passed, left in the work
+    arrays)."""
+    from liebody._kernels import stages as S
+
+    name, dt = run.method.name, run.dt
+    tf = t0 + float(done) * dt
+    if status == S.STATUS_NO_CONVERGENCE:
+        return ConvergenceError(
+            f"{name}: the implicit DMV (RATTLE) equation of body {body} has no solution "
+            f"{where}; reduce dt (h |omega| must stay below about 1); {then}", traj, step, tf)
+    tk = tf + float(run.kt[int(run.ctl[2])]) * dt  # (the driver's time of that kick)
+    cause = None
+    try:
+        run.scene.torque(tk, run.Q.copy(), run.Lm.copy(), run.scene.params,
+                         np.zeros_like(run.out))
+    except Exception as exc:
+        cause = exc
+    if cause is not None:
+        error = TorqueError(f"{name}: the coupled torque raised {type(cause).__name__}: "
+                            f"{cause} {where}, at its kick at t = {tk:.6g}; {then}", traj,
+                            step, tf)
+    else:
+        error = TorqueError(f"{name}: the coupled torque (or the momentum it kicked) was not "
+                            f"finite for body {body} {where}, at its kick at t = {tk:.6g}; "
+                            f"{then}", traj, step, tf)
+    error.__cause__ = cause
+    return error
 
 
 def _trajectory(scene, method, dt, t0, t, q, m, status, failed_at=None, info=None):
@@ -755,22 +770,23 @@ class CoupledStepper:
         self._run.set_state(self._run.state()[0], np.broadcast_to(m, (n, 3)))
 
     def step(self, n: int = 1) -> None:
-        """Advance ``n`` steps (``n >= 1``); a torque that fails raises
-        :class:`~liebody.errors.TorqueError` (the state is then that of the failing
-        step's start only up to the kicks already applied: set it again to go on)."""
+        """Advance ``n`` steps (``n >= 1``). A torque that fails raises
+        :class:`~liebody.errors.TorqueError` (the torque's own exception, if it raised,
+        as the cause), an unsolved DMV equation :class:`~liebody.errors.ConvergenceError`;
+        the stepper is then as it was before the call."""
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
             raise ValueError(f"n must be a positive integer, got {n!r}")
-        self._run.ctl[0] = 1
-        for _ in range(int(n)):
-            _, _, status, body = self._run.run(self._t0, self._k, 1, 1, True, self._q1,
-                                               self._m1, 0)
+        run = self._run
+        bufs, lmax, k0 = run.bufs.copy(), run.lmax.copy(), self._k
+        run.ctl[0] = 1
+        for i in range(int(n)):
+            _, _, status, body = run.run(self._t0, self._k, 1, 1, True, self._q1,
+                                         self._m1, 0)
             if status != 0:
-                from liebody._kernels.stages import STATUS_NO_CONVERGENCE
-
-                dmv = status == STATUS_NO_CONVERGENCE
-                what = ("the implicit DMV equation was not solved" if dmv else
-                        "the coupled torque was not finite")
-                error = ConvergenceError if dmv else TorqueError
-                raise error(f"{self._method.name}: {what} for body {body} at t = "
-                            f"{self.t:.6g}", None, 0, self.t)
+                error = _failure(run, status, body, self._t0, self._k,
+                                 f"at step {i + 1} of this call (t = {self.t:.6g})",
+                                 "the stepper is left as it was before the call", None, i)
+                run.bufs[:], run.lmax[:], self._k = bufs, lmax, k0
+                run.ctl[1] = 0
+                raise error
             self._k += 1

@@ -223,9 +223,11 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
     ``rmax`` ``(B, S, R)`` its largest ``|rate|`` over the block; ``lmax`` ``(B,)``: work
     (each block's largest ``|L|``, set by every kick; start it with the initial one);
     ``moments`` ``(N, 3)`` (the exact flow); ``bufs`` ``(B, ROWS * BLOCK)``: the state
-    (updated in place); ``ctl`` ``(2,)``: steps left until the next save and whether the
+    (updated in place); ``ctl`` ``(3,)``: steps left until the next save and whether the
     first kick of the next step was merged into this one's last (in place, across
-    slices); ``Q``, ``Lm``, ``out``: work arrays ``(N, 4)``, ``(N, 3)``, ``(N, 3)``;
+    slices), and where a run stops, the kick (or the segment) that failed; ``Q``, ``Lm``,
+    ``out``: work arrays ``(N, 4)``, ``(N, 3)``, ``(N, 3)`` (after a failing kick, the
+    ``q / |q|`` and ``L`` its torque was called with);
     ``params`` ``(N, k)``; ``addr`` the torque callback. Saved samples go to rows
     ``row0, row0 + 1, ...`` of ``q_out`` / ``m_out``.
 
@@ -252,6 +254,7 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
                 bad = _kick(bufs, blk_idx, blk_n, Q, Lm, out, params, addr, t + kt[s] * h,
                             tau, lmax)
                 if bad >= 0:
+                    ctl[2] = s
                     return step, n_saved, STATUS_TORQUE, bad
             if s < S:
                 for b in range(bufs.shape[0]):
@@ -266,6 +269,7 @@ def run(kc, kt, rk, ra, rc, blk_group, blk_idx, blk_n, rates, rmax, moments, mer
                                       tau, moments, blk_idx[b],
                                       half * (1.0 + 1e-6) <= FAST_LIMIT)
                         if bad >= 0:
+                            ctl[2] = s
                             return step, n_saved, STATUS_NO_CONVERGENCE, bad
         pending = merge
         if save_now:
