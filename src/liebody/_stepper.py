@@ -52,6 +52,20 @@ __all__ = ["Stepper"]
 _FIRST_WORK = 64
 
 
+def _clock_origin(name: str, value, dt: float) -> float:
+    """``value`` as the clock's origin (a finite number), or the error naming ``name``;
+    refused, as :func:`liebody.integrate` refuses such a ``t0``, where ``value + dt ==
+    value`` in float64: the clock the torque sees could not advance."""
+    t = float(as_float_array(name, value, shape=()))
+    if t + dt == t:
+        raise ValueError(
+            f"{name} = {t!r} and dt = {dt!r}: {name} + dt == {name} in float64 (times near "
+            f"{name} are {math.ulp(t):.3g} apart), so the clock could not advance. Measure "
+            f"the time from a later origin (subtract a reference time from {name}), or use a "
+            f"dt above {0.5 * math.ulp(t):.3g}")
+    return t
+
+
 def _join(pool) -> None:
     """Wait for every task given to ``pool`` (a second Ctrl-C does not cut the wait
     short: the tasks are kernel slices of a fraction of a second)."""
@@ -98,17 +112,23 @@ class Stepper:
         bodies; ``True``: for any ensemble; ``False``: never (every body then gets
         exactly the numbers of its one-body stepper). ``info["simd"]`` says whether
         they run (per group in ``info["groups"]``).
+    t0
+        The time of the initial state (default 0), as for :func:`liebody.integrate`: the
+        clock the torque sees starts there (a user torque is checked on the initial
+        state at ``t0``); refused where ``t0 + dt == t0`` in float64, as is setting
+        :attr:`t` to such a time.
 
     Notes
     -----
     *Agreement with integrate().* ``k`` calls ``step(n)`` give the states that
     ``integrate(..., steps=k * n, save_every=n)`` saves, bit for bit (in particular
     ``step()`` repeated equals ``save_every=1``), when the state is not set between
-    the calls and, for an ensemble, ``simd`` is the same: the kernel, the plan and the
-    clock ``t = (k + j) dt`` are the same. With a larger ``save_every`` the splittings
-    merge the last kick of a step with the first of the next, and the two agree to
-    round-off. The exact flow advances the state by ``n dt`` per call, and agrees with
-    ``integrate()``'s samples (evaluated from the initial state) to round-off.
+    the calls and, for an ensemble, ``simd`` is the same (and ``t0``): the kernel, the
+    plan and the clock ``t = t0 + (k + j) dt`` are the same. With a larger
+    ``save_every`` the splittings merge the last kick of a step with the first of the
+    next, and the two agree to round-off. The exact flow advances the state by ``n dt``
+    per call, and agrees with ``integrate()``'s samples (evaluated from the initial
+    state) to round-off.
 
     *Zero-order hold.* The controls ``u`` are held constant over every step of a call:
     set them, then call ``step()``, as a digital controller does each period.
@@ -178,7 +198,7 @@ class Stepper:
 
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, controls=None, threads: int | None = None,
-                 simd: bool | None = None) -> None:
+                 simd: bool | None = None, t0: float = 0.0) -> None:
         from liebody._ensemble import resolve_threads
         from liebody._integrate import (
             _bodies,
@@ -198,6 +218,7 @@ class Stepper:
         _check_batch("q0", q)
         m = _initial_momentum(scene, L0, omega0)
         self._dt = as_positive_float("dt", dt)
+        t0 = 0.0 if t0.__class__ is float and t0 == 0.0 else _clock_origin("t0", t0, self._dt)
         self._threads = resolve_threads(threads)
         self._simd = None if simd is None else bool(simd)
         n = _bodies(scene, q, m)
@@ -214,15 +235,15 @@ class Stepper:
         promise = (self._model.function is not None
                    and "momentum" not in scene.capabilities.torque)
         if n is None:
-            _check_torque(self._model, q, m, self._u, orientation_only=promise)
+            _check_torque(self._model, q, m, self._u, t0, orientation_only=promise)
             self._state = np.concatenate([q, m])
         else:
             self._state = np.empty((n, 7))
             self._state[:, :4], self._state[:, 4:] = q, m
             _check_torque(self._model, self._state[0, :4], self._state[0, 4:],
-                          _first_row(self._u), ensemble=True, orientation_only=promise)
+                          _first_row(self._u), t0, ensemble=True, orientation_only=promise)
         self._status = np.zeros(1 if n is None else n, dtype=np.int64)
-        self._t0 = 0.0  # the clock: t = t0 + k dt, k the steps since t was last set
+        self._t0 = t0  # the clock: t = t0 + k dt, k the steps since t was last set
         self._k = 0.0
         self._steps = 0
         self._ready()
@@ -750,7 +771,7 @@ class Stepper:
 
     @t.setter
     def t(self, value) -> None:
-        t0 = float(as_float_array("t", value, shape=()))
+        t0 = _clock_origin("t", value, self._dt)
         with self._lock:
             self._t0 = t0
             self._k = 0.0

@@ -1,0 +1,138 @@
+"""Review of the Stepper as a spacecraft controller uses it: the clock it starts from and
+that can be set (``t0``, ``t``). The references are :func:`liebody.integrate` (the
+Stepper's bit-for-bit promise) and its refusals (the same rules and words)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+import liebody
+from liebody import quaternion as Q
+
+I_SAT = np.array([100.0, 120.0, 80.0])
+N_ORBIT = 2.0 * np.pi / 5400.0  # a 90-minute orbit
+R_ORBIT = 7000.0
+GM = N_ORBIT**2 * R_ORBIT**3
+Q0 = Q.exp([0.3, -0.2, 0.5])
+L0 = np.array([10.0, -30.0, 8.0])
+
+
+def _satellite(body=None) -> liebody.GravityGradient:
+    orbit = liebody.orbits.Circular(N_ORBIT, R_ORBIT, inclination=0.4)
+    return liebody.GravityGradient(liebody.RigidBody(I_SAT) if body is None else body,
+                                   [(GM, orbit)])
+
+
+@njit
+def _after_epoch(t, q, L):
+    """A torque known from t = 1 on only (an ephemeris that starts at an epoch): NaN
+    before, a decaying push about x after."""
+    out = np.empty(3)
+    if t < 1.0:
+        out[:] = np.nan
+    else:
+        out[0], out[1], out[2] = 0.5 / t + 0.1 * q[2], -0.1 * q[1], 0.0
+    return out
+
+
+def _states(stepper, calls: int, n: int):
+    qs, Ls, ts = [stepper.q], [stepper.L], [stepper.t]
+    for _ in range(calls):
+        stepper.step(n)
+        qs.append(stepper.q)
+        Ls.append(stepper.L)
+        ts.append(stepper.t)
+    return np.array(qs), np.array(Ls), np.array(ts)
+
+
+# ------------------------------------------------------------------------- the clock
+
+
+@pytest.mark.parametrize("method", ["splitting2", "splitting4", "saba2", "rattle", "rk4"])
+def test_a_stepper_started_at_t0_equals_integrate_from_t0(method):
+    """``Stepper(t0=...)`` as ``integrate(t0=...)``: on an orbit (the gravity-gradient
+    torque depends on the time) k calls step(n) are the samples of integrate(t0=t0,
+    save_every=n), bit for bit. Before, the Stepper had no t0 (TypeError): its clock
+    started at 0, and a stepper set to t0 after it was made had had its torque checked at
+    t = 0 (below)."""
+    t0, dt = 1234.5, 0.5
+    ref = liebody.integrate(_satellite(), q0=Q0, L0=L0, dt=dt, steps=12, save_every=3,
+                            method=method, t0=t0)
+    s = liebody.Stepper(_satellite(), q0=Q0, L0=L0, dt=dt, method=method, t0=t0)
+    assert s.t == t0
+    q, L, t = _states(s, 4, 3)
+    np.testing.assert_array_equal(t, ref.t)
+    np.testing.assert_array_equal(q, ref.q)
+    np.testing.assert_array_equal(L, ref.L)
+    # the torque saw t0's clock: a stepper whose clock starts at 0 is far off
+    from_zero = liebody.Stepper(_satellite(), q0=Q0, L0=L0, dt=dt, method=method)
+    from_zero.step(12)
+    assert np.max(np.abs(from_zero.L - L[-1])) > 1e-6
+
+
+def test_an_ensemble_stepper_started_at_t0_equals_integrate_from_t0():
+    rng = np.random.default_rng(4)
+    bodies = liebody.RigidBody.batch(I_SAT * rng.uniform(0.9, 1.1, size=(5, 3)),
+                                     check_triangle=False)
+    q0, L0s = Q.random(5, rng=5), rng.normal(scale=20.0, size=(5, 3))
+    kw = {"q0": q0, "L0": L0s, "dt": 0.5, "method": "splitting2", "simd": False,
+          "t0": 777.25}
+    ref = liebody.integrate(_satellite(bodies), steps=8, save_every=4, **kw)
+    s = liebody.Stepper(_satellite(bodies), **kw)
+    q, L, t = _states(s, 2, 4)
+    np.testing.assert_array_equal(t, ref.t)
+    np.testing.assert_array_equal(np.moveaxis(q, 1, 0), ref.q)
+    np.testing.assert_array_equal(np.moveaxis(L, 1, 0), ref.L)
+
+
+def test_a_torque_known_from_an_epoch_on_is_checked_at_t0():
+    """A torque that is NaN before t = 1: integrate(t0=5) runs it; the one-body Stepper
+    refused it (its check called the torque at t = 0, and it had no t0). Now
+    Stepper(t0=5) checks it at t0 and steps as integrate does, bit for bit."""
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 2.5]), _after_epoch,
+                               orientation_only=True)
+    kw = {"q0": Q0, "L0": [0.3, -1.0, 0.6], "dt": 0.05, "method": "splitting2"}
+    ref = liebody.integrate(scene, steps=20, save_every=5, t0=5.0, **kw)
+    s = liebody.Stepper(scene, t0=5.0, **kw)
+    q, L, t = _states(s, 4, 5)
+    np.testing.assert_array_equal(t, ref.t)
+    np.testing.assert_array_equal(q, ref.q)
+    np.testing.assert_array_equal(L, ref.L)
+    with pytest.raises(liebody.errors.TorqueError, match="non-finite"):
+        liebody.Stepper(scene, **kw)  # at t0 = 0 the torque is NaN: refused, as before
+
+
+@pytest.mark.parametrize(("value", "error", "words"), [
+    (1e17, ValueError, r"t0 \+ dt == t0 in float64"),
+    (np.nan, ValueError, "t0 must be finite"),
+    ("1", TypeError, "t0 must contain real numbers"),
+    ([1.0], ValueError, r"t0 must have shape \(\)"),
+])
+def test_a_bad_t0_is_refused_as_integrate_refuses_it(value, error, words):
+    free = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 2.5]))
+    kw = {"L0": [0.3, -1.0, 0.6], "dt": 0.01}
+    with pytest.raises(error, match=words) as local:
+        liebody.integrate(free, steps=1, t0=value, **kw)
+    with pytest.raises(error, match=words) as stepper:
+        liebody.Stepper(free, t0=value, **kw)
+    assert str(stepper.value) == str(local.value)
+
+
+def test_setting_t_where_the_clock_cannot_advance_is_refused():
+    """t = 1e17 with dt = 0.01: t + dt == t in float64, so the time the torque sees would
+    stand still for ~1600 steps at a time (integrate() refuses such a t0). The setter
+    accepted it; now it refuses it with integrate()'s words, and the stepper keeps its
+    clock. A time where the clock advances is still taken exactly."""
+    s = liebody.Stepper(_satellite(), q0=Q0, L0=L0, dt=0.01, method="splitting2")
+    s.step(3)
+    before = (s.t, s.steps, s.q, s.L)
+    with pytest.raises(ValueError, match=r"t = 1e\+17 and dt = 0\.01: t \+ dt == t in "
+                                         r"float64 \(times near t are 16 apart\)"):
+        s.t = 1e17
+    assert (s.t, s.steps) == before[:2]
+    np.testing.assert_array_equal(s.q, before[2])
+    s.t = 2.0**40  # ulp 2.4e-4 < dt: the clock advances
+    s.step()
+    assert s.t == 2.0**40 + 0.01
