@@ -93,11 +93,12 @@ class CoupledBodies:
         body's torque, in its own body frame, into ``out`` ``(N, 3)`` (zeros at every
         call: a loop over pairs may accumulate into it with ``+=``), from the
         orientations ``q`` ``(N, 4)`` (unit quaternions, scalar first, body to space: the
-        state's ``q / |q|``), the body-frame
-        angular momenta ``L`` ``(N, 3)`` (for the signature only: the torque of a
-        potential does not depend on them) and ``params``. For a potential ``V``, body
-        ``i``'s torque is minus the derivative of ``V`` under a rotation of body ``i``:
-        ``N_i = -dV/d(eps_i)`` with ``q_i -> q_i exp(eps_i / 2)`` (body frame).
+        state's ``q / |q|``), the body-frame angular momenta ``L`` ``(N, 3)`` (for the
+        signature only: the torque of a potential does not depend on them; one that does
+        is refused, checked at ``L = 2 L0 + 1`` at the start) and ``params``. For a
+        potential ``V``, body ``i``'s torque is minus the derivative of ``V`` under a
+        rotation of body ``i``: ``N_i = -dV/d(eps_i)`` with ``q_i -> q_i exp(eps_i / 2)``
+        (body frame).
     potential
         Optional ``potential(t, q, params) -> float``, the ``V`` the torque derives
         from (compiled or plain Python): the energy of the trajectory and the energy
@@ -579,6 +580,15 @@ def _initial(scene, q0, L0, omega0, name_q="q0"):
             np.ascontiguousarray(np.broadcast_to(m, (n, 3)), dtype=float))
 
 
+def _clock_start(name, value, dt) -> float:
+    """A finite start time from which steps of ``dt`` advance the clock."""
+    t0 = float(as_float_array(name, value, shape=()))
+    if t0 + dt == t0:
+        raise ValueError(f"{name} = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64, so the "
+                         f"clock could not advance")
+    return t0
+
+
 def _check_torque(scene, q, m, t0):
     """Call the torque once from Python at the initial state: a wrong signature or a
     failing torque is named before the run."""
@@ -593,6 +603,20 @@ def _check_torque(scene, q, m, t0):
         i = int(np.argmax(bad))
         raise TorqueError(f"the coupled torque wrote non-finite values for body {i} at the "
                           f"initial state: {out[i].tolist()}")
+    why = ("The kicks are the exact flow of a potential V(t, q), L += tau N(t, q); a torque "
+           "of the momenta (a drag, a gyroscopic term) has no such flow, and its kicks would "
+           "be explicit, first order and irreversible")
+    other_L = 2.0 * m + 1.0
+    try:
+        other = scene.evaluate_torque(q, other_L, t0)
+    except Exception as exc:
+        raise ValueError(f"the coupled torque depends on L: it raised {type(exc).__name__} "
+                         f"({exc}) at L = 2 L0 + 1 (same t and q), not at L0. {why}") from exc
+    if not np.array_equal(other, out):
+        i = int(np.argmax((other != out).any(axis=1)))
+        raise ValueError(f"the coupled torque depends on L: at the initial t and q it gives "
+                         f"{out[i].tolist()} for body {i} at L0 = {m[i].tolist()} and "
+                         f"{other[i].tolist()} at L = 2 L0 + 1. {why}")
 
 
 def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method, progress,
@@ -717,11 +741,12 @@ class CoupledStepper:
 
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
+        t0 = _clock_start("t0", t0, self._dt)
         self._method = _methods.get(scene.default_method if method is None else method)
         q, m = _initial(scene, q0, L0, omega0)
         self._run = _prepare(scene, self._method, q, m, self._dt)
         _check_torque(scene, q, m, t0)
-        self._t0 = float(t0)
+        self._t0 = t0
         self._k = 0
         n = scene.n_bodies
         self._q1, self._m1 = np.empty((n, 1, 4)), np.empty((n, 1, 3))
@@ -744,7 +769,7 @@ class CoupledStepper:
 
     @t.setter
     def t(self, value) -> None:
-        self._t0 = float(as_float_array("t", value, shape=()))
+        self._t0 = _clock_start("t", value, self._dt)
         self._k = 0
 
     @property
@@ -754,8 +779,10 @@ class CoupledStepper:
     @q.setter
     def q(self, value) -> None:
         n = self._scene.n_bodies
-        q = np.broadcast_to(as_unit_quaternion("q", value), (n, 4))
-        self._run.set_state(q, self._run.state()[1])
+        q = as_unit_quaternion("q", value)
+        if q.shape not in ((4,), (n, 4)):
+            raise ValueError(f"q must have shape (4,) or (N, 4) = ({n}, 4), got {q.shape}")
+        self._run.set_state(np.broadcast_to(q, (n, 4)), self._run.state()[1])
 
     @property
     def L(self) -> np.ndarray:

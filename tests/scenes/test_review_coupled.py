@@ -165,9 +165,12 @@ def test_the_stepper_names_its_bad_arguments():
     with pytest.raises(ValueError, match=r"t0 \+ dt == t0"):  # the clock could not advance
         liebody.Stepper(scene, q0=q0, L0=L0, dt=1e-3, t0=1e20)
     st = liebody.Stepper(scene, q0=q0, L0=L0, dt=0.1)
+    q = st.q
     with pytest.raises(ValueError, match=r"q must have shape \(4,\) or \(N, 4\) = \(3, 4\)"):
-        st.q = q0[:2]
-    assert np.array_equal(st.q, q0)
+        st.q = q0[:2]  # (numpy's broadcasting error, which named no argument)
+    assert np.array_equal(st.q, q)
+    with pytest.raises(ValueError, match="t must be finite"):
+        st.t = float("inf")
 
 
 # ------------------------------------------------------------ a torque that reads L
