@@ -836,8 +836,11 @@ class Stepper:
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(q, L)`` (copies); set both at once with ``stepper.state = (q, L)``."""
-        return self.q, self.L
+        """``(q, L)`` (copies, of one state: read under the lock, so that a step on
+        another thread cannot come between them); set both at once with
+        ``stepper.state = (q, L)``."""
+        with self._lock:
+            return self.q, self.L
 
     @state.setter
     def state(self, value) -> None:

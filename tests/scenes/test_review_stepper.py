@@ -1,8 +1,11 @@
 """Review of the Stepper as a spacecraft controller uses it: the clock it starts from and
-that can be set (``t0``, ``t``). The references are :func:`liebody.integrate` (the
+that can be set (``t0``, ``t``) and the state read as one pair while another thread
+steps. The references are :func:`liebody.integrate` (the
 Stepper's bit-for-bit promise) and its refusals (the same rules and words)."""
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 import pytest
@@ -136,3 +139,34 @@ def test_setting_t_where_the_clock_cannot_advance_is_refused():
     s.t = 2.0**40  # ulp 2.4e-4 < dt: the clock advances
     s.step()
     assert s.t == 2.0**40 + 0.01
+
+
+# ------------------------------------------------------------------------- the state
+
+
+def test_the_state_is_one_state_while_another_thread_steps():
+    """``stepper.state`` read q and L under two separate holds of the lock, so a step()
+    on another thread could come between them: the pair was q before the step and L
+    after it. Made to happen here: the other thread steps as soon as q has been read."""
+    s = liebody.Stepper(_satellite(), q0=Q0, L0=L0, dt=0.5, method="splitting2")
+    s.step()
+    q_before, L_before = s.q, s.L
+    view = s._view
+    other = []
+
+    def view_then_step(sl):
+        out = view(sl)
+        if not other:  # after the first read (q): a step on another thread
+            th = threading.Thread(target=s.step)
+            other.append(th)
+            th.start()
+            th.join(timeout=0.5)  # it waits for the lock while the pair is read
+        return out
+
+    s._view = view_then_step
+    q, L = s.state
+    del s._view
+    other[0].join()
+    np.testing.assert_array_equal(q, q_before)
+    np.testing.assert_array_equal(L, L_before)
+    assert s.steps == 2 and not np.array_equal(s.L, L_before)  # the step was taken, after
