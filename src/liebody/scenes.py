@@ -502,7 +502,10 @@ class TorqueBody(Scene):
     potential
         Optional ``potential(q) -> float`` (``potential(t, q, p)`` with ``params``) for a
         conservative, orientation-only torque; energy diagnostics then include it, and
-        the scene counts as conservative.
+        the scene counts as conservative. A ``potential(t, q, p)`` that depends on ``t``
+        (:attr:`time_dependent_potential`) makes the scene not conservative: the energy
+        changes by the integral of ``dV/dt``, it is not checked at the end of a run and
+        the energy diagnostics are NaN (``potential(q, t)`` evaluates it).
     params
         Optional parameters of the torque: an array ``(k,)`` shared by every body, or
         ``(N, k)`` one row per body (the inertia of each Monte Carlo case, say). With
@@ -565,8 +568,43 @@ class TorqueBody(Scene):
 
     def _capabilities(self) -> Capabilities:
         deps = {"time", "orientation"} | (set() if self.orientation_only else {"momentum"})
-        conservative = self.potential_fn is not None and self.orientation_only
+        conservative = (self.potential_fn is not None and self.orientation_only
+                        and not self.time_dependent_potential)
         return Capabilities(torque=frozenset(deps), conservative=conservative)
+
+    #: the times and orientations at which :attr:`time_dependent_potential` compares a
+    #: potential ``(t, q, p)`` (generic numbers: no common potential is periodic in them)
+    _PROBE_TIMES: ClassVar[tuple] = (0.0, 0.3183098861837907, 1.4142135623730951,
+                                     2.718281828459045, 31.3, 142.85714285714286)
+    _PROBE_Q: ClassVar[tuple] = ((0.8792968436751748, 0.2398082300932295,
+                                  -0.35971234513984424, 0.1998401917443579),
+                                 (0.5, -0.5, 0.5, 0.5))
+
+    @property
+    def time_dependent_potential(self) -> bool:
+        """Whether the potential ``potential(t, q, p)`` depends on ``t``: its finite values
+        differ between the probe times (``_PROBE_TIMES``) at a probe orientation, for
+        body 0, the middle body or the last. Such a scene is not conservative (its energy
+        changes by the integral of ``dV/dt``): the end-of-run energy check is not made and
+        the energy diagnostics are NaN, as for a :class:`GravityGradient`. False without
+        ``params`` (``potential(q)`` has no time) or without a potential."""
+        return _memo(self, "time_dependent_potential", self._probe_time_dependence)
+
+    def _probe_time_dependence(self) -> bool:
+        if self.potential_fn is None or self.params is None:
+            return False
+        rows = self.params.reshape(-1, self.params.shape[-1])
+        for i in sorted({0, len(rows) // 2, len(rows) - 1}):
+            p = rows[i]
+            for q in self._PROBE_Q:
+                q = np.array(q)
+                try:
+                    values = [float(self.potential_fn(t, q, p)) for t in self._PROBE_TIMES]
+                except Exception:  # (the run's check of the potential reports it)
+                    continue
+                if all(map(math.isfinite, values)) and len(set(values)) > 1:
+                    return True
+        return False
 
     def potential(self, q: np.ndarray, t: float = 0.0) -> np.ndarray:
         """The user's potential at orientations ``q`` ``(..., 4)`` and time ``t`` (zeros
@@ -593,9 +631,15 @@ class TorqueBody(Scene):
         return out
 
     def torque_model(self) -> TorqueModel:
-        return _memo(self, "torque_model", lambda: TorqueModel.user(self.torque,
-                                                                     self.controls,
-                                                                     self.params))
+        return _memo(self, "torque_model", self._torque_model)
+
+    def _torque_model(self) -> TorqueModel:
+        import dataclasses
+
+        model = TorqueModel.user(self.torque, self.controls, self.params)
+        if self.time_dependent_potential:  # (the energy diagnostics NaN)
+            model = dataclasses.replace(model, time_dependent=True)
+        return model
 
 
 @dataclass(frozen=True, init=False, eq=False)

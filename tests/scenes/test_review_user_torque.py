@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from numba import njit
+from scipy.integrate import cumulative_simpson
 
 import liebody
 from liebody import quaternion
@@ -109,3 +110,50 @@ def test_a_torque_that_copies_its_params_runs_and_keeps_them():
                               L0=[1.0, 0.0, 0.0], dt=0.01, steps=10)
     np.testing.assert_array_equal(a.L, fixed.L)
     np.testing.assert_array_equal(a.q, fixed.q)
+
+
+@njit
+def _pulsing_gravity(t, q, L, p):
+    """Gravity whose strength pulses: ``(1 + p[3] sin t) Gamma x c``."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    g = np.array([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z])
+    return (1.0 + p[3] * np.sin(t)) * np.cross(g, p[:3])
+
+
+def _pulsing_potential(t, q, p):
+    return float((1.0 + p[3] * np.sin(t)) * (_vertical(q) @ p[:3]))
+
+
+def test_a_time_dependent_potential_is_not_checked_as_a_kept_energy():
+    """potential(t, q, p) that depends on t: the energy changes by the integral of dV/dt
+    (checked here along the run), so the scene is not conservative and no energy is
+    checked or reported. It was declared conservative, and the end-of-run check compared
+    T + V(0, q) at both ends: 'the energy went from 2.06 to 3.41' warned on a run whose
+    true energies went from 3.24 to 2.87, as the integral of dV/dt says."""
+    params = np.array([0.3, -0.2, 2.0, 0.8])
+    scene = liebody.TorqueBody(BODY, _pulsing_gravity, potential=_pulsing_potential,
+                               params=params, orientation_only=True)
+    q0 = quaternion.exp([0.3, 0.2, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = liebody.integrate(scene, q0=q0, L0=[0.5, 0.2, 1.0], dt=1e-3, t_end=3.0, t0=1.0,
+                                 method="splitting4", diagnostics=True)
+    assert np.isnan(traj.diagnostics["max_energy_error"])
+    assert scene.time_dependent_potential
+    assert not scene.capabilities.conservative
+    q = traj.q / np.linalg.norm(traj.q, axis=-1, keepdims=True)
+    V = np.array([scene.potential(qk, tk) for qk, tk in zip(q, traj.t, strict=True)])
+    E = 0.5 * np.sum(traj.L ** 2 / BODY.moments, axis=-1) + V
+    dVdt = params[3] * np.cos(traj.t) * (_vertical(q) @ params[:3])
+    work = cumulative_simpson(dVdt, x=traj.t, initial=0.0)
+    assert abs(E[-1] - E[0]) > 0.1  # (the energy does change)
+    # E(t) - E(t0) = int dV/dt: Simpson's error (dt^4) and the method's (dt^4)
+    np.testing.assert_allclose(E - E[0], work, atol=1e-9)
+
+
+def test_a_potential_of_params_without_time_stays_conservative():
+    scene = liebody.TorqueBody(BODY, _gravity_p, potential=_gravity_potential_p,
+                               params=np.array([[0.3, -0.2, 2.0], [0.0, 1.0, 0.5]]),
+                               orientation_only=True)
+    assert not scene.time_dependent_potential
+    assert scene.capabilities.conservative
