@@ -47,6 +47,8 @@ from liebody.scenes import Scene
 
 __all__ = ["Stepper"]
 
+_FLOAT64 = np.dtype(np.float64)
+
 #: body-steps in the first slice of a stepper that has not measured its cost yet (the
 #: later ones: ``_engine.next_slice``, about ``_engine.SLICE_SECONDS`` each)
 _FIRST_WORK = 64
@@ -872,9 +874,11 @@ class Stepper:
         if value is None:
             raise TypeError("u must be the control inputs (an array of numbers), got None")
         try:
-            u = np.array(value, dtype=np.float64)
+            u = np.array(value)  # (a copy, of the value's own type: strings stay strings)
         except (TypeError, ValueError):
             u = None
+        if u is not None and u.dtype is not _FLOAT64:
+            u = u.astype(np.float64) if u.dtype.kind in "biuf" else None
         if u is None or u.shape != self._u.shape or not (
                 all(map(math.isfinite, u.tolist())) if u.ndim == 1
                 else bool(np.isfinite(u).all())):

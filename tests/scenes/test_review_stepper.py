@@ -1,6 +1,6 @@
 """Review of the Stepper as a spacecraft controller uses it: the clock it starts from and
-that can be set (``t0``, ``t``) and the state read as one pair while another thread
-steps. The references are :func:`liebody.integrate` (the
+that can be set (``t0``, ``t``), the state read as one pair while another thread steps,
+and the control inputs it accepts. The references are :func:`liebody.integrate` (the
 Stepper's bit-for-bit promise) and its refusals (the same rules and words)."""
 
 from __future__ import annotations
@@ -170,3 +170,35 @@ def test_the_state_is_one_state_while_another_thread_steps():
     np.testing.assert_array_equal(q, q_before)
     np.testing.assert_array_equal(L, L_before)
     assert s.steps == 2 and not np.array_equal(s.L, L_before)  # the step was taken, after
+
+
+# ------------------------------------------------------------------------- the controls
+
+
+@njit
+def _commanded(t, q, L, u):
+    return u.copy()
+
+
+@pytest.mark.parametrize("bodies", [None, 3])
+def test_controls_given_as_strings_are_refused_as_integrate_refuses_them(bodies):
+    """``stepper.u = ["1", "2", "3"]`` was converted to numbers (NumPy parses strings
+    when asked for float64), while ``integrate(controls=["1", "2", "3"])`` refuses them;
+    now the setter refuses them with the same words, and u stays as it was."""
+    body = (liebody.RigidBody([1200.0, 1100.0, 800.0]) if bodies is None else
+            liebody.RigidBody.batch(np.tile([1200.0, 1100.0, 800.0], (bodies, 1))))
+    craft = liebody.ControlledBody(body, _commanded, controls=3, orientation_only=True)
+    s = liebody.Stepper(craft, omega0=[0.02, -0.03, 0.05], dt=0.1, method="splitting2",
+                        controls=[0.1, 0.2, 0.3])
+    before = s.u
+    value = ["1", "2", "3"] if bodies is None else [["1", "2", "3"]] * bodies
+    with pytest.raises(TypeError, match="must contain real numbers") as local:
+        liebody.integrate(craft, omega0=[0.02, -0.03, 0.05], dt=0.1, steps=1, controls=value)
+    with pytest.raises(TypeError, match="u must contain real numbers") as stepper:
+        s.u = value
+    assert str(stepper.value) == str(local.value).replace("controls", "u")
+    np.testing.assert_array_equal(s.u, before)
+    # numbers of other types are numbers: integers, and float32 (widened exactly)
+    s.u = np.array([1, 2, 3]) if bodies is None else np.ones((bodies, 3), dtype=np.int32)
+    s.u = np.array([0.5, 0.25, -0.125], dtype=np.float32)
+    np.testing.assert_array_equal(s.u, np.broadcast_to([0.5, 0.25, -0.125], before.shape))
