@@ -37,7 +37,7 @@ I1, I2, I3 = moments
 def gravity_gradient(t, q, L):
     c, s = np.cos(n * t), np.sin(n * t)  # r = (c, s, 0) in space
     w, x, y, z = q[0], q[1], q[2], q[3]
-    # r_body = R(q)^T r: the rows of R(q) dotted with r
+    # r_body = R(q)^T r: the columns of R(q) dotted with r
     r1 = (1 - 2 * (y * y + z * z)) * c + 2 * (x * y + w * z) * s
     r2 = 2 * (x * y - w * z) * c + (1 - 2 * (x * x + z * z)) * s
     r3 = 2 * (x * z + w * y) * c + 2 * (y * z - w * x) * s
