@@ -10,7 +10,9 @@ free flow), as in the splittings of one body (McLachlan 1993; Dullweber, Leimkuh
 McLachlan, J. Chem. Phys. 107 (1997) 5840, the rigid-body splitting for molecular
 dynamics). Every sub-flow is the exact flow of a Hamiltonian, so the methods are
 symplectic and reversible and have the order of the method (2 for ``splitting2``,
-4, 6 and 8 for the compositions).
+4, 6 and 8 for the compositions). Each body's free flow is chosen at set-up from its
+initial orbit, so to retrace a run reverse the momenta on its :class:`liebody.Stepper`
+(a new run from ``(q, -L)`` may choose other free flows: ``docs/coupled.md``).
 
 Angular momentum. A free flow keeps each body's spatial angular momentum
 ``R(q_i) L_i``; a kick changes the total by ``tau sum_i R(q_i) N_i``, the net torque in
