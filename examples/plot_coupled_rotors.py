@@ -113,6 +113,11 @@ each = np.linalg.norm(spin.L, axis=-1)
 drift = np.abs(Ls - Ls[0]).max() / np.linalg.norm(Ls[0])
 print(f"|L| of body 2: 0 -> up to {each[1].max():.3f}; total spatial L kept to {drift:.1e}")
 assert each[1].max() > 1.0 and drift < 1e-13
+# the torque is the potential's (a sign or a factor wrong would not change the total L,
+# but the energy): the total energy stays put while V swings by about 1
+E2, V2 = spin.energy, spin.potential_energy
+print(f"potential swings by {np.ptp(V2):.3f}; total energy kept to {np.ptp(E2):.1e}")
+assert np.ptp(E2) < 1e-8 * np.ptp(V2) and np.ptp(V2) > 0.5
 
 fig, ax = plt.subplots(figsize=(6, 3.5))
 ax.plot(spin.t, each[0], label="|L| of body 1")
