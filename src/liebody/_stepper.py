@@ -140,11 +140,13 @@ class Stepper:
     for the orbit of the state, such as the axis ordering of the splittings or the
     modified moments of preprocessed DMV; ``q`` and ``t`` cost nothing).
 
-    *Failures.* For one body, a step that fails (a non-finite state, an implicit
-    equation not solved, a torque that fails) raises the error of
-    :func:`liebody.integrate` (:class:`~liebody.errors.IntegrationError` for a
-    non-finite state) and leaves the stepper as it was before the call: the failed
-    call changes nothing, and ``exc.step`` tells how many of its steps succeeded. For
+    *Failures.* For one body, a step that fails raises: an implicit equation not
+    solved or a torque that fails raise the error of :func:`liebody.integrate`
+    (:class:`~liebody.errors.ConvergenceError`, :class:`~liebody.errors.TorqueError`),
+    a non-finite state :class:`~liebody.errors.IntegrationError` (where ``integrate()``
+    returns the samples before it, with a ``RuntimeWarning``). The stepper is left as
+    it was before the call: the failed call changes nothing, and ``exc.step`` tells
+    how many of its steps succeeded. For
     an ensemble the failing bodies are left at their state before the call, marked in
     :attr:`failed` and skipped by later calls (a ``RuntimeWarning`` says which); the
     others go on. Setting the state clears the marks.
