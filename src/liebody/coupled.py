@@ -381,6 +381,18 @@ class CoupledTrajectory(Trajectory):
         """:func:`kinetic_temperature` at every sample."""
         return kinetic_temperature(self)
 
+    def body(self, i: int) -> Trajectory:
+        """Body ``i``'s samples as a one-body trajectory (:meth:`Trajectory.body`), its
+        scene the free body (:meth:`CoupledBodies.take`: the coupling is not part of
+        it), ``failed_at`` and ``status`` the system's."""
+        import dataclasses
+
+        n = self.n_bodies
+        whole = dataclasses.replace(
+            self, failed_at=None if self.failed_at is None else np.full(n, self.failed_at),
+            status=np.full(n, self.status))
+        return Trajectory.body(whole, i)
+
 
 # ------------------------------------------------------------------ the run
 _SUPPORTED: tuple | None = None

@@ -264,3 +264,26 @@ def test_the_stepper_reverses_a_composition_exactly():
         st.step(150)
         assert rotation_distance(st.q, q0).max() < 1e-11, method
         np.testing.assert_allclose(-st.L, L0, rtol=0, atol=1e-11, err_msg=method)
+
+
+# ------------------------------------------------------------ one body of the system
+def test_trajectory_body_picks_one_body_of_a_coupled_run():
+    """``CoupledBodies.take`` exists for ``Trajectory.body(i)``, which raised IndexError
+    on every coupled trajectory (it indexed the system's one ``status`` string per
+    body)."""
+    scene, q0, L0 = _system(3, seed=39)
+    tr = liebody.integrate(scene, q0=q0, L0=L0, dt=0.05, steps=20, save_every=5)
+    one = tr.body(1)
+    assert np.array_equal(one.q, tr.q[1]) and np.array_equal(one.L, tr.L[1])
+    assert np.array_equal(one.t, tr.t) and one.status == "complete" and one.failed_at is None
+    np.testing.assert_allclose(one.kinetic_energy,
+                               0.5 * np.sum(tr.L[1] ** 2 / scene.moments[1], axis=-1),
+                               rtol=1e-15)
+    bad, q0, L0 = _failing(_nan_after)
+    with pytest.raises(liebody.TorqueError) as info:
+        liebody.integrate(bad, q0=q0, L0=L0, dt=0.1, steps=20)
+    failed = info.value.trajectory
+    for i in (0, 1, -1):
+        b = failed.body(i)
+        assert b.status == "failed" and b.failed_at == pytest.approx(0.6)
+        assert np.array_equal(b.L, failed.L[i])
