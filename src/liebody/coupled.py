@@ -349,7 +349,7 @@ def kinetic_temperature(traj) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ the trajectory
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class CoupledTrajectory(Trajectory):
     """The trajectory of :class:`CoupledBodies`: per body ``q`` ``(N, n, 4)``, ``L``
     ``(N, n, 3)`` (every per-body quantity of :class:`~liebody.Trajectory`), and the
@@ -380,6 +380,13 @@ class CoupledTrajectory(Trajectory):
     def temperature(self) -> np.ndarray:
         """:func:`kinetic_temperature` at every sample."""
         return kinetic_temperature(self)
+
+    def __repr__(self) -> str:
+        status = (f"failed at t={self.failed_at:g}" if self.failed_at is not None
+                  else self.status)
+        return (f"CoupledTrajectory(method={self.method.name!r}, dt={self.dt:g}, "
+                f"bodies={self.n_bodies}, samples={len(self)}, t=[{self.t[0]:g}, "
+                f"{self.t[-1]:g}], {status})")
 
     def body(self, i: int) -> Trajectory:
         """Body ``i``'s samples as a one-body trajectory (:meth:`Trajectory.body`), its

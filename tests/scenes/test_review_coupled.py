@@ -287,3 +287,17 @@ def test_trajectory_body_picks_one_body_of_a_coupled_run():
         b = failed.body(i)
         assert b.status == "failed" and b.failed_at == pytest.approx(0.6)
         assert np.array_equal(b.L, failed.L[i])
+
+
+def test_a_coupled_trajectory_is_shown_in_one_line():
+    """The dataclass decorator of CoupledTrajectory wrote a repr of every field (every
+    sample of q and L, the method's record: 3,000 characters for 3 bodies and 4 samples)
+    over Trajectory's one line."""
+    scene, q0, L0 = _system(3, seed=41)
+    tr = liebody.integrate(scene, q0=q0, L0=L0, dt=0.1, steps=3)
+    assert repr(tr) == ("CoupledTrajectory(method='splitting2', dt=0.1, bodies=3, samples=4, "
+                        "t=[0, 0.3], complete)")
+    bad, q0, L0 = _failing(_nan_after)
+    with pytest.raises(liebody.TorqueError) as info:
+        liebody.integrate(bad, q0=q0, L0=L0, dt=0.1, steps=20)
+    assert repr(info.value.trajectory).endswith("samples=6, t=[0, 0.5], failed at t=0.6)")
