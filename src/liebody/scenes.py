@@ -637,9 +637,40 @@ class TorqueBody(Scene):
         import dataclasses
 
         model = TorqueModel.user(self.torque, self.controls, self.params)
+        if self.orientation_only:
+            self._check_promise(model)
         if self.time_dependent_potential:  # (the energy diagnostics NaN)
             model = dataclasses.replace(model, time_dependent=True)
         return model
+
+    #: the state and controls at which :meth:`_check_promise` compares the torque of every
+    #: row of ``params`` at ``L`` and ``2 L + 1`` (generic numbers)
+    _PROBE_L: ClassVar[tuple] = (0.37, -1.1, 0.83)
+    _PROBE_U: ClassVar[tuple] = (0.7, -0.4, 0.25, 0.6, -0.9, 0.15)
+
+    def _check_promise(self, model: TorqueModel) -> None:
+        """``orientation_only=True`` for every body: the torque of each row of ``params``
+        at a probe state must not change from ``L`` to ``2 L + 1`` (``integrate()`` checks
+        body 0 at its initial state; a torque whose ``L`` term is scaled by a row, zero in
+        body 0's, ran the other bodies' implicit-kick torque with explicit kicks, at order
+        1, without a word). One compiled call over the rows; else ``ValueError``."""
+        from liebody._models.user_torque import broken_promise
+
+        q, m = np.array(self._PROBE_Q[0]), np.array(self._PROBE_L)
+        u = np.array(self._PROBE_U)
+        i = int(broken_promise(model.address, 0.0, q, m, u, model.params))
+        if i < 0:
+            return
+        a = np.asarray(model(0.0, q, m, u, i), dtype=float).tolist()
+        b = np.asarray(model(0.0, q, 2.0 * m + 1.0, u, i), dtype=float).tolist()
+        who = f" for body {i} (row {i} of params)" if model.params.shape[0] > 1 else ""
+        at = f", u = {u[:self.controls].tolist()}" if self.controls else ""
+        raise ValueError(
+            f"orientation_only=True, but the torque {model.signature} depends on L{who}: "
+            f"at t = 0, q = {q.tolist()}{at} it gives {a} at L = {m.tolist()} and {b} at "
+            f"L = 2 L + 1. orientation_only=True promises a torque of t, q (and u) alone, "
+            f"whose kicks are then explicit and exact; for a torque that depends on L, pass "
+            f"orientation_only=False (the default: implicit kicks, the method's order kept)")
 
 
 @dataclass(frozen=True, init=False, eq=False)

@@ -157,3 +157,23 @@ def test_a_potential_of_params_without_time_stays_conservative():
                                orientation_only=True)
     assert not scene.time_dependent_potential
     assert scene.capabilities.conservative
+
+
+@njit
+def _drag_p(t, q, L, p):
+    return -p[0] * L
+
+
+@pytest.mark.parametrize("simd", [False, True])
+def test_a_false_orientation_only_promise_of_another_body_is_refused(simd):
+    """integrate() checks the promise on body 0's torque at its initial state: a torque
+    whose L term is scaled by each body's row, zero in body 0's, ran bodies 1..3 (drag
+    -0.5 L) with explicit kicks, at order 1, without a word. Refused, naming the body."""
+    scene = liebody.TorqueBody(BODY, _drag_p, params=[[0.0], [0.5], [0.5], [0.5]],
+                               orientation_only=True)
+    with pytest.raises(ValueError, match=r"depends on L for body 1 \(row 1 of params\).*"
+                                         r"orientation_only=False"):
+        liebody.integrate(scene, L0=[1.0, 0.2, 0.1], dt=0.01, steps=10, simd=simd)
+    honest = liebody.TorqueBody(BODY, _drag_p, params=[[0.0], [0.5], [0.5], [0.5]])
+    traj = liebody.integrate(honest, L0=[1.0, 0.2, 0.1], dt=0.01, steps=10, simd=simd)
+    assert np.all(traj.status == "complete")

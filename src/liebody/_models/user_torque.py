@@ -300,3 +300,22 @@ def initial_ok_entry():
 def potential(t, w, x, y, z, mp):
     """A user potential is Python: not evaluable in the kernels."""
     return math.nan
+
+
+@jit
+def broken_promise(addr, t, q, m, u, P):
+    """The first row ``i`` of the parameters ``P`` ``(n_rows, k)`` for which the callback at
+    ``addr`` breaks an ``orientation_only`` promise at ``(t, q)`` with the controls ``u``
+    (``(N_CONTROLS,)``): finite torques at ``L = m`` and at ``L = 2 m + 1`` that differ;
+    -1 for none (a row whose torque is not finite there is not judged)."""
+    w, x, y, z, m1, m2, m3 = q[0], q[1], q[2], q[3], m[0], m[1], m[2]
+    for i in range(P.shape[0]):
+        a1, a2, a3 = call_torque(addr, t, w, x, y, z, m1, m2, m3, u[0], u[1], u[2], u[3],
+                                 u[4], u[5], P[i])
+        b1, b2, b3 = call_torque(addr, t, w, x, y, z, 2.0 * m1 + 1.0, 2.0 * m2 + 1.0,
+                                 2.0 * m3 + 1.0, u[0], u[1], u[2], u[3], u[4], u[5], P[i])
+        finite = (math.isfinite(a1) and math.isfinite(a2) and math.isfinite(a3)
+                  and math.isfinite(b1) and math.isfinite(b2) and math.isfinite(b3))
+        if finite and not (a1 == b1 and a2 == b2 and a3 == b3):
+            return i
+    return -1
