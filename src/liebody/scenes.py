@@ -1016,7 +1016,7 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
     """A user torque is an ``@njit`` function giving 3 real numbers on a test call.
 
     Refused: not a numba function (``TypeError``); compiled in object mode, or returning
-    complex, string or object values (``TypeError``: the kernels' callback cannot call
+    complex, boolean, string or object values (``TypeError``: the kernels' callback cannot call
     it); a test call that raises or gives another shape (``ValueError``); and, with
     controls or parameters, Python code that raises ``IndexError`` on the test inputs
     (``ValueError`` saying how many entries ``u`` and ``p`` have: compiled, numba does not
@@ -1055,10 +1055,10 @@ def _check_user_torque(torque, controls: int, params=None) -> None:
         raise TypeError(f"torque({args}) is compiled in numba's object mode: the torque must "
                         f"return real float64 numbers from nopython code (use @njit, not "
                         f"@jit(forceobj=True)), which the kernels can call")
-    if tau.dtype.kind not in "biuf":
+    if tau.dtype.kind not in "iuf":
         raise TypeError(f"torque({args}) must return real float64 numbers (3 of them), got "
-                        f"dtype {tau.dtype} on a test call (complex, string and object "
-                        f"values cannot be a torque)")
+                        f"dtype {tau.dtype} on a test call (complex, boolean, string and "
+                        f"object values cannot be a torque)")
     if tau.shape != (3,):
         raise ValueError(f"torque({args}) must return 3 numbers, got shape {tau.shape}")
     py_func = getattr(torque, "py_func", None)

@@ -177,3 +177,15 @@ def test_a_false_orientation_only_promise_of_another_body_is_refused(simd):
     honest = liebody.TorqueBody(BODY, _drag_p, params=[[0.0], [0.5], [0.5], [0.5]])
     traj = liebody.integrate(honest, L0=[1.0, 0.2, 0.1], dt=0.01, steps=10, simd=simd)
     assert np.all(traj.status == "complete")
+
+
+@njit
+def _boolean_torque(t, q, L):
+    return np.array([True, False, q[0] > 0.5])
+
+
+def test_a_boolean_torque_is_refused_at_construction():
+    """Booleans are no torque: accepted before, they ran as 0 and 1 one body at a time and
+    failed to compile (numba TypingError) in the SIMD ensemble path."""
+    with pytest.raises(TypeError, match=r"real float64 numbers.*dtype bool"):
+        liebody.TorqueBody(BODY, _boolean_torque, orientation_only=True)
