@@ -539,7 +539,9 @@ def integrate(scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt, steps
 
     edges = list(range(0, n, per_task)) + [n]
     chunks = [slice(a, b) for a, b in itertools.pairwise(edges)]
-    batched = bool(scene.batch_shape)
+    # a scene with one row per body is split with the bodies; one of a single row (a
+    # batch of one, which the states' N bodies share) is sent whole, as an unbatched one
+    batched = scene.batch_shape not in ((), (1,))
     spec = call.task_spec(threads)
     # a fresh key per call (hash=False): a repeated call with the same scene must not
     # reuse the key of data that the previous call's release may be dropping

@@ -496,3 +496,29 @@ def test_reaction_wheels_are_refused_before_any_task(inproc, monkeypatch):
     with pytest.raises(ValueError, match=r"does not run ReactionWheels scenes.*use "
                                          r"liebody\.integrate"):
         liebody.distributed.integrate(craft, client=inproc, **kw)
+
+
+def _tilt_p(t, q, L, p):
+    return np.array([p[0] * q[1], p[1] * q[2], -0.1 * q[3]])
+
+
+def test_a_scene_batch_of_one_shared_by_the_states_bodies(inproc):
+    """A scene with a body axis of length one (``RigidBody.batch`` of one body, params of
+    one row) and five bodies given by the states: the local call broadcasts the scene's
+    row over them. The tasks split the scene with the bodies (``scene.take``), which gave
+    tasks after the first an empty scene, and the run raised a shape mismatch from a
+    worker (before); now it is the local result."""
+    from numba import njit
+
+    one = liebody.RigidBody.batch([[1.0, 2.0, 2.5]])
+    scenes = [liebody.FreeBody(one),
+              liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 2.5]), njit(_tilt_p),
+                                 params=[[0.1, -0.2]], orientation_only=True)]
+    kw = {"q0": liebody.quaternion.random(5, rng=1),
+          "L0": np.random.default_rng(2).normal(size=(5, 3)), "dt": 0.01, "steps": 20,
+          "method": "splitting2", "save_every": 10, "diagnostics": True}
+    for scene in scenes:
+        assert scene.batch_shape == (1,)
+        local = liebody.integrate(scene, **kw)
+        remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=2, **kw)
+        _assert_local(remote, local)
