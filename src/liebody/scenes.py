@@ -1005,7 +1005,10 @@ def _user_params(params, body: RigidBody) -> np.ndarray:
                          f"row per body, k >= 1, got shape {p.shape}")
     if p.ndim == 2:
         n = body.shape[0] if body.shape else None
-        if (n is not None and p.shape[0] not in (n, 1)) or p.shape[0] == 0:
+        if p.shape[0] == 0:
+            raise ValueError(f"params of shape {p.shape} have no rows: give one row per body "
+                             f"(N, k), one row for all (1, k) or a (k,) array")
+        if n is not None and p.shape[0] not in (n, 1):
             raise ValueError(f"params of shape {p.shape} give {p.shape[0]} rows, but the body "
                              f"describes {n} bodies: give one row per body or a (k,) array")
     p.flags.writeable = False

@@ -189,3 +189,10 @@ def test_a_boolean_torque_is_refused_at_construction():
     failed to compile (numba TypingError) in the SIMD ensemble path."""
     with pytest.raises(TypeError, match=r"real float64 numbers.*dtype bool"):
         liebody.TorqueBody(BODY, _boolean_torque, orientation_only=True)
+
+
+def test_params_without_rows_are_refused_in_words():
+    """It said 'the body describes None bodies' for a single body."""
+    with pytest.raises(ValueError, match=r"params of shape \(0, 2\) have no rows") as info:
+        liebody.TorqueBody(BODY, _gravity_p, params=np.ones((0, 2)))
+    assert "None" not in str(info.value)
