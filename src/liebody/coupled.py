@@ -167,19 +167,35 @@ class CoupledBodies:
             self._address = adapt_coupled_torque(self.torque)
         return self._address
 
+    def _arguments(self, t, q, L=None):
+        """``t``, ``q`` ``(N, 4)`` (and ``L`` ``(N, 3)``, or ``(3,)`` for every body) as
+        the compiled functions take them: they index the bodies without bounds checks."""
+        n = self.n_bodies
+        t = float(as_float_array("t", t, shape=()))
+        q = as_float_array("q", q)
+        if q.shape != (n, 4):
+            raise ValueError(f"q must have shape (N, 4) = ({n}, 4), one orientation per "
+                             f"body, got {q.shape}")
+        if L is None:
+            return t, np.ascontiguousarray(q)
+        L = as_float_array("L", L)
+        if L.shape not in ((3,), (n, 3)):
+            raise ValueError(f"L must have shape (3,) or (N, 3) = ({n}, 3), got {L.shape}")
+        return t, np.ascontiguousarray(q), np.ascontiguousarray(np.broadcast_to(L, (n, 3)))
+
     def potential(self, q, t: float = 0.0) -> float:
         """``V(t, q)`` for the orientations ``q`` ``(N, 4)`` (NaN without a potential)."""
         if self.potential_function is None:
             return math.nan
-        return float(self.potential_function(float(t), np.ascontiguousarray(q, dtype=float),
-                                             self.params))
+        t, q = self._arguments(t, q)
+        return float(self.potential_function(t, q, self.params))
 
     def evaluate_torque(self, q, L, t: float = 0.0) -> np.ndarray:
         """The collective torque ``(N, 3)`` at ``(t, q, L)``, called from Python (raises
         what the torque raises)."""
+        t, q, L = self._arguments(t, q, L)
         out = np.zeros((self.n_bodies, 3))
-        self.torque(float(t), np.ascontiguousarray(q, dtype=float),
-                    np.ascontiguousarray(L, dtype=float), self.params, out)
+        self.torque(t, q, L, self.params, out)
         return out
 
     def take(self, i):

@@ -301,3 +301,30 @@ def test_a_coupled_trajectory_is_shown_in_one_line():
     with pytest.raises(liebody.TorqueError) as info:
         liebody.integrate(bad, q0=q0, L0=L0, dt=0.1, steps=20)
     assert repr(info.value.trajectory).endswith("samples=6, t=[0, 0.5], failed at t=0.6)")
+
+
+def test_the_potential_and_the_torque_check_the_orientations_they_are_given():
+    """The compiled model reads every body's row without bounds checks: the potential of
+    4 orientations for a lattice of 6 bodies read past the array (V = -5.3e276), the
+    torque likewise, and momenta of the wrong shape went through."""
+    from test_coupled import _lattice
+
+    lat, q, sites, d = _lattice(n=6, cutoff=100.0)
+    L = np.zeros((6, 3))
+    with pytest.raises(ValueError, match=r"q must have shape \(N, 4\) = \(6, 4\)"):
+        lat.potential(q[:4])
+    with pytest.raises(ValueError, match=r"q must have shape \(N, 4\) = \(6, 4\)"):
+        lat.potential(q[:, :3])
+    with pytest.raises(ValueError, match=r"q must have shape \(N, 4\) = \(6, 4\)"):
+        lat.evaluate_torque(q[:4], L)
+    with pytest.raises(ValueError, match=r"L must have shape \(3,\) or \(N, 3\) = \(6, 3\)"):
+        lat.evaluate_torque(q, L[:2])
+    with pytest.raises(ValueError, match="q must be finite"):
+        lat.potential(np.full((6, 4), np.nan))
+    with pytest.raises(ValueError, match="t must be finite"):
+        lat.potential(q, t=np.nan)
+    # the right shapes give the pair sum, and L broadcast from (3,) the same torque
+    from test_coupled import _direct_potential
+
+    assert lat.potential(q) == pytest.approx(_direct_potential(q, sites, d), rel=1e-13)
+    assert np.array_equal(lat.evaluate_torque(q, L[0]), lat.evaluate_torque(q, L))
