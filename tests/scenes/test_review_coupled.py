@@ -328,3 +328,33 @@ def test_the_potential_and_the_torque_check_the_orientations_they_are_given():
 
     assert lat.potential(q) == pytest.approx(_direct_potential(q, sites, d), rel=1e-13)
     assert np.array_equal(lat.evaluate_torque(q, L[0]), lat.evaluate_torque(q, L))
+
+
+def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
+    """The end-of-run energy check calls the potential; a (plain Python) potential that
+    raised there made integrate() raise it, the computed trajectory lost. It is a
+    warning now, the run returned; a NaN potential is still warned about as not
+    finite."""
+    scene, q0, L0 = _system(3, seed=43)
+    calls = []
+
+    def fragile(t, q, p):
+        calls.append(t)
+        if len(calls) > 1:
+            raise RuntimeError("no more energy")
+        return heisenberg_potential(t, q, p)
+
+    def nan(t, q, p):
+        return float("nan")
+
+    body = liebody.RigidBody.batch(scene.moments, check_triangle=False)
+    with pytest.warns(liebody.InvariantWarning, match="not checked: the potential raised "
+                                                      "RuntimeError: no more energy"):
+        tr = liebody.integrate(CoupledBodies(body, heisenberg_torque, fragile,
+                                             params=scene.params),
+                               q0=q0, L0=L0, dt=0.01, steps=50)
+    ref = liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=50)
+    assert np.array_equal(tr.L, ref.L) and tr.status == "complete"
+    with pytest.warns(liebody.InvariantWarning, match="not finite at the ends"):
+        liebody.integrate(CoupledBodies(body, heisenberg_torque, nan, params=scene.params),
+                          q0=q0, L0=L0, dt=0.01, steps=50)
