@@ -421,11 +421,18 @@ class Stepper:
         steps0, k0 = self._steps, self._k
         start = state.copy()
         ctl[0], ctl[1] = n + 1, 0
-        flight = [0, 0]  # the slice in flight: its first step and its length
+        # the slice in flight: its first step, its length and the state it starts from
+        # (the call's start for the first slice: a copy only where there are several)
+        flight = [0, 0, start]
         try:
             done, size = 0, self._size
             while done < n:
                 k = min(size, n - done)
+                if done:
+                    if flight[2] is start:
+                        flight[2] = state.copy()
+                    else:
+                        flight[2][:] = state
                 flight[0], flight[1] = done, k
                 t = time.perf_counter()
                 d, _, status = self._call(*head, self._t0, k0 + done, k, n + 2, done + k == n,
@@ -448,7 +455,7 @@ class Stepper:
         self._raise(status, done + d, bad)
 
     def _one_interrupted(self, n: int, steps0: int, k0: float, start: np.ndarray,
-                         flight: list[int]):
+                         flight: list):
         """Ctrl-C during ``_one``: keep the steps done (read from ``ctl[0]``), complete
         a step whose last stage was merged with the next one's first, raise."""
         ctl, state = self._ctl, self._state
@@ -458,12 +465,16 @@ class Stepper:
         while True:  # a second Ctrl-C runs this again (every part can be repeated)
             try:
                 if m is None:
-                    s, k = flight
+                    s, k, before = flight
                     if ctl[0] == n + 2:
                         m = n
                     elif k > 0 and ctl[0] == n + 1 - (s + k):
                         m = s + k
-                    else:  # the slice did not run, or failed: its outcome is unknown
+                    elif ctl[0] == n + 1 - s and np.array_equal(state, before):
+                        # the slice did not run (or failed and left the state it started
+                        # from, whose step the completion below runs again): s steps
+                        m = s
+                    else:  # the slice failed after some steps: its outcome is unknown
                         state[:] = start
                         ctl[1] = 0
                         m = 0

@@ -255,3 +255,53 @@ def test_a_satellite_stepped_from_t0_follows_its_orbit_as_dop853_does():
     from_zero = liebody.Stepper(scene, q0=Q0, L0=L0s, dt=5.0, method="splitting4")
     from_zero.step(int(span / 5.0))
     assert np.max(np.abs(from_zero.L - L_ref)) / np.linalg.norm(L0s) > 0.01
+
+
+# ------------------------------------------------------------------------- Ctrl-C
+
+
+class _CtrlCAt:
+    """``time`` for the stepper module whose ``perf_counter`` raises KeyboardInterrupt at
+    its ``at``-th call. A slice reads the clock before and after its kernel call: an odd
+    ``at`` is Ctrl-C just before a slice starts, after ``(at - 1) / 2`` slices done."""
+
+    def __init__(self, at: int) -> None:
+        self.at, self.calls = at, 0
+
+    def perf_counter(self) -> float:
+        import time
+
+        self.calls += 1
+        if self.calls == self.at:
+            raise KeyboardInterrupt
+        return time.perf_counter()
+
+
+@pytest.mark.parametrize("method", ["splitting2", "rattle", "rk4"])
+@pytest.mark.parametrize("at", [3, 5])
+def test_ctrl_c_before_a_slice_keeps_the_slices_done(method, at, monkeypatch):
+    """One body, Ctrl-C just before the second or third slice of a long step(n): the
+    slices done are kept (m > 0; a merged end stage is completed), and the stepper is
+    exactly a stepper after step(m), as an ensemble's is. Before, the one-body stepper
+    went back to the start of the call (m = 0), losing the slices it had done, though its
+    state was theirs."""
+    from liebody import _stepper
+
+    kw = {"q0": Q0, "L0": L0, "dt": 0.5, "method": method, "t0": 100.0}
+    s = liebody.Stepper(_satellite(), **kw)
+    s.step(3)
+    monkeypatch.setattr(_stepper, "time", _CtrlCAt(at))
+    with pytest.raises(liebody.IntegrationInterrupted) as info:
+        s.step(100_000)
+    monkeypatch.undo()
+    m = info.value.step
+    assert m > 0 and s.steps == 3 + m
+    twin = liebody.Stepper(_satellite(), **kw)
+    twin.step(3)
+    twin.step(m)
+    assert s.t == twin.t
+    np.testing.assert_array_equal(s.q, twin.q)
+    np.testing.assert_array_equal(s.L, twin.L)
+    s.step(4)
+    twin.step(4)
+    np.testing.assert_array_equal(s.L, twin.L)
