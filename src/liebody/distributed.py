@@ -256,7 +256,10 @@ def _check_workers_memory(client, call: _Call, per_task: int) -> None:
     k = len(call.times)
     need = k * _per_sample(per_task)
     if need > limit:
-        fit = max(1, int((limit // 2 - 8 * k) // max(1, k * (_per_sample(2) - 8))))
+        # the bodies whose samples fit in half the limit (a body's share of a sample:
+        # the bytes of two bodies' sample less one body's)
+        per_body = _per_sample(2) - _per_sample(1)
+        fit = max(1, int((limit // 2 - 8 * k) // (k * per_body)))
         raise ValueError(
             f"bodies_per_task = {per_task:,}: a task keeps {k:,} samples of {per_task:,} "
             f"bodies ({need / 1e9:.3g} GB), more than a worker's memory limit of "

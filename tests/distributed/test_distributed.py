@@ -522,3 +522,23 @@ def test_a_scene_batch_of_one_shared_by_the_states_bodies(inproc):
         local = liebody.integrate(scene, **kw)
         remote = liebody.distributed.integrate(scene, client=inproc, bodies_per_task=2, **kw)
         _assert_local(remote, local)
+
+
+def test_the_bodies_per_task_advised_are_those_that_fit_in_half_a_workers_limit():
+    """The refusal advises the largest bodies_per_task whose samples fit in half a
+    worker's memory limit: with 20,001 samples of 56 B a body (q, L) and 8 B of time, 22
+    bodies fit in 25 MB and 23 do not. It advised 11: each body counted twice."""
+    import re
+
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                       memory_limit="50MB", dashboard_address=None,
+                                       silence_logs=40)
+    with cluster, distributed.Client(cluster) as small:
+        scene, _, L0 = _ensemble(64)
+        with pytest.raises(ValueError, match=r"bodies_per_task = 64: .*give bodies_per_task "
+                                             r"= (\d+) or less") as info:
+            liebody.distributed.integrate(scene, client=small, L0=L0, dt=0.01,
+                                          steps=20_000, method="splitting2", gather=False)
+    fit = int(re.search(r"give bodies_per_task = (\d+)", str(info.value)).group(1))
+    k, half = 20_001, 50_000_000 // 2
+    assert k * (8 + 56 * fit) <= half < k * (8 + 56 * (fit + 1))
