@@ -631,7 +631,11 @@ class TorqueBody(Scene):
         return out
 
     def torque_model(self) -> TorqueModel:
-        return _memo(self, "torque_model", self._torque_model)
+        key = _MEMO + "torque_model"
+        model = vars(self).get(key)
+        if model is None:  # (made outside _memo's KeyError handler: a refusal reads alone)
+            model = vars(self)[key] = self._torque_model()
+        return model
 
     def _torque_model(self) -> TorqueModel:
         import dataclasses
@@ -639,6 +643,8 @@ class TorqueBody(Scene):
         model = TorqueModel.user(self.torque, self.controls, self.params)
         if self.orientation_only:
             self._check_promise(model)
+            if self.potential_fn is not None and not self.controls:
+                self._check_gradient(model)
         if self.time_dependent_potential:  # (the energy diagnostics NaN)
             model = dataclasses.replace(model, time_dependent=True)
         return model
@@ -647,6 +653,54 @@ class TorqueBody(Scene):
     #: row of ``params`` at ``L`` and ``2 L + 1`` (generic numbers)
     _PROBE_L: ClassVar[tuple] = (0.37, -1.1, 0.83)
     _PROBE_U: ClassVar[tuple] = (0.7, -0.4, 0.25, 0.6, -0.9, 0.15)
+
+    def _check_gradient(self, model: TorqueModel) -> None:
+        """The torque must be minus the derivative of the potential under a body-frame
+        rotation, ``N = -dV/d(eps)`` with ``q -> q exp(eps / 2)``: checked at ``t = 0`` at
+        the probe orientations for body 0, the middle and the last body, by central
+        differences of fourth order (step 1e-4 rad; relative tolerance 1e-3, far above their
+        error, far below a sign, a factor or a torque in the space frame). A potential that
+        raises or is not finite there is not judged (the run's check reports it).
+        Else ``ValueError``: the energy diagnostics would follow another system's energy,
+        and the end-of-run check blame the step."""
+        from liebody import quaternion
+
+        h = 1e-4
+        rows = model.params.reshape(-1, model.params.shape[-1])
+        for i in sorted({0, len(rows) // 2, len(rows) - 1}):
+            for probe in self._PROBE_Q:
+                q = np.array(probe)
+
+                def V(eps, k, i=i, q=q):
+                    turn = np.zeros(4)
+                    turn[0], turn[1 + k] = math.cos(eps / 2.0), math.sin(eps / 2.0)
+                    r = quaternion.multiply(q, turn)
+                    if self.params is None:
+                        return float(self.potential_fn(r))
+                    return float(self.potential_fn(0.0, r, rows[i]))
+
+                try:
+                    grad = np.array([(8.0 * (V(h, k) - V(-h, k)) - (V(2 * h, k) - V(-2 * h, k)))
+                                     / (12.0 * h) for k in range(3)])
+                    size = abs(V(0.0, 0))
+                    torque = np.asarray(model(0.0, q, np.array(self._PROBE_L),
+                                              np.zeros(max(self.controls, 1)), i), dtype=float)
+                except Exception:  # (the run's checks report it)
+                    continue
+                if not (np.isfinite(grad).all() and np.isfinite(size)
+                        and np.isfinite(torque).all()):
+                    continue
+                off = np.linalg.norm(torque + grad)
+                if off <= 1e-3 * (np.linalg.norm(torque) + np.linalg.norm(grad)) + 1e-8 * size:
+                    continue
+                who = f" (body {i}, row {i} of params)" if len(rows) > 1 else ""
+                raise ValueError(
+                    f"the torque {model.signature} is not minus the derivative of the "
+                    f"potential{who}: at t = 0, q = {q.tolist()} it gives "
+                    f"{torque.tolist()}, and -dV/d(eps) is {(-grad).tolist()} (q -> q exp(eps "
+                    f"/ 2), a rotation in the body frame; central differences). The potential "
+                    f"of a conservative torque N gives N = -dV/d(eps): check its signs and "
+                    f"factors, and that the torque is in the body frame; or give no potential")
 
     def _check_promise(self, model: TorqueModel) -> None:
         """``orientation_only=True`` for every body: the torque of each row of ``params``

@@ -196,3 +196,61 @@ def test_params_without_rows_are_refused_in_words():
     with pytest.raises(ValueError, match=r"params of shape \(0, 2\) have no rows") as info:
         liebody.TorqueBody(BODY, _gravity_p, params=np.ones((0, 2)))
     assert "None" not in str(info.value)
+
+
+@njit
+def _gravity_in_space_frame(t, q, L, p):
+    """The body torque of :func:`_gravity_p` turned to the space frame: a frame mistake."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return R @ _gravity_p(t, q, L, p)
+
+
+def _signed_potential(t, q, p):
+    """``p[3] Gamma . c``: the potential of :func:`_gravity_p` where ``p[3] = 1``."""
+    return p[3] * _gravity_potential_p(t, q, p)
+
+
+@njit
+def _stiff(t, q, L, p):
+    """``V = cos(p[0] Gamma_z)``: ``N = -p[0] sin(p[0] Gamma_z) Gamma x e_z``."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    g = np.array([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z])
+    return -p[0] * np.sin(p[0] * g[2]) * np.array([g[1], -g[0], 0.0])
+
+
+def _stiff_potential(t, q, p):
+    return float(np.cos(p[0] * _vertical(q)[2]))
+
+
+@pytest.mark.parametrize("torque, potential, params, words", [
+    (_gravity_in_space_frame, _gravity_potential_p, [0.3, -0.2, 2.0], ""),
+    (_gravity_p, _signed_potential, [0.3, -0.2, 2.0, -1.0], ""),
+    (_gravity_p, _signed_potential, [[0.3, -0.2, 2.0, 1.0], [0.3, -0.2, 2.0, 1.0],
+                                     [0.3, -0.2, 2.0, -1.0]], r" \(body 2, row 2 of params\)"),
+])
+def test_a_potential_that_is_not_the_torques_is_refused(torque, potential, params, words):
+    """A torque in the space frame, or a potential of the wrong sign (for one body of an
+    ensemble), ran and warned at the end that 'the energy went from -1.46 to 0.079, more
+    than 1% ... (the step may be too large for this scene ...)', blaming the step; the
+    energy it reports is another system's. Refused, naming the rule N = -dV/d(eps)."""
+    scene = liebody.TorqueBody(BODY, torque, potential=potential, params=params,
+                               orientation_only=True)
+    with pytest.raises(ValueError, match=r"not minus the derivative of the potential"
+                                         + words + r".*N = -dV/d\(eps\)"):
+        liebody.integrate(scene, q0=quaternion.exp([0.3, 0.2, 0.1]), L0=[0.5, 0.2, 1.0],
+                          dt=0.01, steps=10)
+
+
+def test_a_stiff_potential_that_is_the_torques_runs():
+    """The check's differences do not refuse a potential that turns fast (cos(40 Gamma_z)),
+    and its energy is kept as the method keeps it."""
+    scene = liebody.TorqueBody(BODY, _stiff, potential=_stiff_potential, params=[40.0],
+                               orientation_only=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = liebody.integrate(scene, q0=quaternion.exp([0.3, 0.2, 0.1]),
+                                 L0=[0.5, 0.2, 1.0], dt=1e-4, steps=2000, method="splitting4")
+    assert np.ptp(traj.energy) < 1e-6 * np.abs(traj.energy).max()
