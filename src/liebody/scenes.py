@@ -505,7 +505,11 @@ class TorqueBody(Scene):
         the scene counts as conservative. A ``potential(t, q, p)`` that depends on ``t``
         (:attr:`time_dependent_potential`) makes the scene not conservative: the energy
         changes by the integral of ``dV/dt``, it is not checked at the end of a run and
-        the energy diagnostics are NaN (``potential(q, t)`` evaluates it).
+        the energy diagnostics are NaN (``potential(q, t)`` evaluates it). With
+        ``orientation_only`` (and no controls) the torque must be minus the derivative of
+        the potential under a body-frame rotation, ``N = -dV/d(eps)`` for ``q -> q exp(eps
+        / 2)``: checked by central differences at two orientations (body 0, the middle and
+        the last body; ``ValueError`` otherwise) when the scene is first run.
     params
         Optional parameters of the torque: an array ``(k,)`` shared by every body, or
         ``(N, k)`` one row per body (the inertia of each Monte Carlo case, say). With
@@ -521,7 +525,8 @@ class TorqueBody(Scene):
         fixed-point iteration), which keeps the splittings symmetric.
         :func:`liebody.integrate` checks the promise at the start of each run (the torque
         at ``L0`` and at ``2 L0 + 1``, same ``t`` and ``q``, must agree; else
-        ``ValueError``).
+        ``ValueError``), and the scene checks it for every row of ``params`` at a probe
+        state when it is first run.
     free_flow
         As for :class:`HeavyTop`.
 
