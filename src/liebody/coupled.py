@@ -851,20 +851,34 @@ class CoupledStepper:
         """Advance ``n`` steps (``n >= 1``). A torque that fails raises
         :class:`~liebody.errors.TorqueError` (the torque's own exception, if it raised,
         as the cause), an unsolved DMV equation :class:`~liebody.errors.ConvergenceError`;
-        the stepper is then as it was before the call."""
+        the stepper is then as it was before the call. Ctrl-C raises
+        :class:`~liebody.errors.IntegrationInterrupted` with the steps done kept
+        (``exc.step`` of them: the stepper is as ``step(exc.step)`` leaves it)."""
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
             raise ValueError(f"n must be a positive integer, got {n!r}")
         run = self._run
         bufs, lmax, k0 = run.bufs.copy(), run.lmax.copy(), self._k
-        run.ctl[0] = 1
-        for i in range(int(n)):
-            _, _, status, body = run.run(self._t0, self._k, 1, 1, True, self._q1,
-                                         self._m1, 0)
-            if status != 0:
-                error = _failure(run, status, body, self._t0, self._k,
+        k = k0
+        run.ctl[0] = 2  # (a step that ran leaves 1, its save countdown: set before k)
+        try:
+            for i in range(int(n)):
+                run.ctl[0] = 2
+                k = self._k
+                _, _, status, body = run.run(self._t0, k, 1, 1, True, self._q1, self._m1, 0)
+                if status == 0:
+                    self._k = k + 1
+                    continue
+                error = _failure(run, status, body, self._t0, k,
                                  f"at step {i + 1} of this call (t = {self.t:.6g})",
                                  "the stepper is left as it was before the call", None, i)
                 run.bufs[:], run.lmax[:], self._k = bufs, lmax, k0
                 run.ctl[1] = 0
                 raise error
-            self._k += 1
+        except KeyboardInterrupt:  # (Python raises it between calls: none is cut short)
+            if self._k == k and run.ctl[0] == 1:  # the step ran, the clock was not moved
+                self._k = k + 1
+            m = self._k - k0
+            raise IntegrationInterrupted(
+                f"Stepper.step({int(n):,}) interrupted after {m:,} of {int(n):,} steps; the "
+                f"stepper is left after them, as step({m:,}) would have left it (t = "
+                f"{self.t:.6g})", None, m, self.t) from None

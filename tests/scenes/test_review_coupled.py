@@ -358,3 +358,33 @@ def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
     with pytest.warns(liebody.InvariantWarning, match="not finite at the ends"):
         liebody.integrate(CoupledBodies(body, heisenberg_torque, nan, params=scene.params),
                           q0=q0, L0=L0, dt=0.01, steps=50)
+
+
+def test_ctrl_c_in_a_stepper_call_keeps_the_steps_done():
+    """Ctrl-C as a step's call returns (simulated: the call runs, then raises
+    KeyboardInterrupt, as Python delivers a pending SIGINT): the coupled Stepper let a
+    bare KeyboardInterrupt through with the state one step ahead of its clock. Now it
+    raises IntegrationInterrupted, as liebody.Stepper does, and is the stepper that took
+    exc.step steps, bit for bit, clock included."""
+    scene, q0, L0 = _system(3, seed=45)
+    st = liebody.Stepper(scene, q0=q0, L0=L0, dt=0.05)
+    inner, calls = st._run.run, []
+
+    def interrupted(*args):
+        out = inner(*args)
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return out
+
+    st._run.run = interrupted
+    with pytest.raises(liebody.IntegrationInterrupted) as info:
+        st.step(10)
+    st._run.run = inner
+    twin = liebody.Stepper(scene, q0=q0, L0=L0, dt=0.05)
+    twin.step(4)
+    assert info.value.step == 4 and st.t == twin.t == pytest.approx(0.2)
+    assert np.array_equal(st.q, twin.q) and np.array_equal(st.L, twin.L)
+    st.step(5)
+    twin.step(5)
+    assert np.array_equal(st.L, twin.L) and st.t == twin.t
