@@ -498,7 +498,7 @@ class WheelStepper(Stepper):
 
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, controls=None, threads: int | None = None,
-                 simd: bool | None = None) -> None:
+                 simd: bool | None = None, t0: float = 0.0) -> None:
         from liebody import _methods
 
         m = _methods.get(scene.default_method if method is None else method)
@@ -509,7 +509,7 @@ class WheelStepper(Stepper):
 
             L0, omega0 = with_wheels(scene, _initial_momentum(scene, None, omega0)), None
         super().__init__(scene, q0=q0, L0=L0, omega0=omega0, dt=dt, method=method,
-                         controls=None, threads=threads, simd=simd)
+                         controls=None, threads=threads, simd=simd, t0=t0)
         self._wu = wheel_controls(scene, controls, self._n, name="controls")
         self._wheels = WheelState(scene, self._n or 1, self._dt, self._t0)
         self._write()

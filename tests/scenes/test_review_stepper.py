@@ -305,3 +305,25 @@ def test_ctrl_c_before_a_slice_keeps_the_slices_done(method, at, monkeypatch):
     s.step(4)
     twin.step(4)
     np.testing.assert_array_equal(s.L, twin.L)
+
+
+def test_a_wheel_stepper_started_at_t0_equals_integrate_from_t0():
+    """``Stepper(wheels, t0=...)`` (the reaction-wheel stepper, made by ``Stepper``) takes
+    t0 as the Stepper does: wheels in orbit under the gravity gradient, with torques
+    that saturate the wheels' speed, equal integrate(t0=...) bit for bit, wheel momenta
+    and the saturations' times included. Before, it refused t0 (TypeError)."""
+    orbit = liebody.orbits.Circular(N_ORBIT, R_ORBIT, inclination=0.3)
+    craft = liebody.ReactionWheels(liebody.RigidBody([10.0, 12.0, 8.0]), np.eye(3), 0.01,
+                                   momentum=[0.1, -0.2, 0.3], max_torque=0.05, max_speed=60.0,
+                                   sources=[(GM, orbit)])
+    kw = {"q0": Q.exp([0.1, 0.2, 0.3]), "omega0": [0.01, 0.02, -0.01], "dt": 0.5,
+          "controls": [0.02, -0.01, 0.03], "t0": 250.0, "method": "splitting2"}
+    ref = liebody.integrate(craft, steps=400, save_every=100, **kw)
+    s = liebody.Stepper(craft, **kw)
+    q, L, t = _states(s, 4, 100)
+    np.testing.assert_array_equal(t, ref.t)
+    np.testing.assert_array_equal(q, ref.q)
+    np.testing.assert_array_equal(L, ref.L)
+    np.testing.assert_array_equal(s.wheel_momentum, ref.wheels[-1])
+    assert len(ref.saturations) == 3
+    assert [x.t for x in s.saturations] == [x.t for x in ref.saturations]
