@@ -388,3 +388,21 @@ def test_ctrl_c_in_a_stepper_call_keeps_the_steps_done():
     st.step(5)
     twin.step(5)
     assert np.array_equal(st.L, twin.L) and st.t == twin.t
+
+
+@njit(cache=True)
+def _noisy(t, q, L, p, out):
+    heisenberg_torque(t, q, L, p, out)
+    for i in range(q.shape[0]):
+        for a in range(3):
+            out[i, a] += 1e-3 * np.random.standard_normal()  # noqa: NPY002 (numba's)
+
+
+def test_a_torque_that_draws_noise_is_not_taken_for_one_that_reads_L():
+    """The check of L-independence compares two calls; a random torque (a thermostat's
+    kicks) differs between any two calls and runs as before."""
+    scene, q0, L0 = _system(3, seed=47)
+    noisy = CoupledBodies(liebody.RigidBody.batch(scene.moments, check_triangle=False),
+                          _noisy, params=scene.params)
+    tr = liebody.integrate(noisy, q0=q0, L0=L0, dt=0.01, steps=10)
+    assert tr.status == "complete" and np.isfinite(tr.L).all()
