@@ -611,10 +611,12 @@ class TorqueBody(Scene):
                     return True
         return False
 
-    def potential(self, q: np.ndarray, t: float = 0.0) -> np.ndarray:
-        """The user's potential at orientations ``q`` ``(..., 4)`` and time ``t`` (zeros
-        without one). With per-body ``params`` ``(N, k)``, ``q`` has the body axis first
-        (``(N, ..., 4)``) and body ``i``'s row is passed."""
+    def potential(self, q: np.ndarray, t=0.0) -> np.ndarray:
+        """The user's potential at orientations ``q`` ``(..., 4)`` and times ``t`` (a number,
+        or an array broadcast against ``q``'s leading axes, as for
+        :class:`GravityGradient`: ``potential(traj.q, traj.t)`` is the potential along a
+        run; zeros without a potential). With per-body ``params`` ``(N, k)``, ``q`` has the
+        body axis first (``(N, ..., 4)``) and body ``i``'s row is passed."""
         q = np.asarray(q, dtype=float)
         if self.potential_fn is None:
             return np.zeros(q.shape[:-1])
@@ -623,16 +625,27 @@ class TorqueBody(Scene):
             vals = np.fromiter((float(self.potential_fn(row)) for row in flat), float,
                                len(flat))
             return vals.reshape(q.shape[:-1])
-        t = float(t)
-        if self.params.ndim == 1 or self.params.shape[0] == 1:  # one row for every body
-            flat = q.reshape(-1, 4)
-            p = self.params.reshape(-1)
-            vals = np.fromiter((float(self.potential_fn(t, row, p)) for row in flat), float,
-                               len(flat))
-            return vals.reshape(q.shape[:-1])
+        try:
+            t = np.broadcast_to(np.asarray(t, dtype=float), q.shape[:-1])
+        except ValueError:
+            raise ValueError(f"t of shape {np.shape(t)} does not broadcast against the "
+                             f"orientations q {q.shape[:-1]} (one time per orientation, or "
+                             f"one for all)") from None
+        rows = self.params.reshape(-1, self.params.shape[-1])
+        if rows.shape[0] > 1 and (q.ndim < 2 or q.shape[0] != rows.shape[0]):
+            raise ValueError(f"q must have the body axis first, (N, ..., 4) with N = "
+                             f"{rows.shape[0]} (one per row of params), got shape {q.shape}")
         out = np.empty(q.shape[:-1])
-        for i in range(q.shape[0]):
-            out[i] = self.__class__.potential(self.take(i), q[i], t)
+        for i in range(rows.shape[0]):  # (one row for every body, or body i's)
+            qi, ti = (q, t) if rows.shape[0] == 1 else (q[i], t[i])
+            p = rows[i]
+            vals = np.fromiter((float(self.potential_fn(tk, row, p)) for row, tk in
+                                zip(qi.reshape(-1, 4), ti.reshape(-1).tolist(), strict=True)),
+                               float, ti.size)
+            if rows.shape[0] == 1:
+                out = vals.reshape(q.shape[:-1])
+            else:
+                out[i] = vals.reshape(ti.shape)
         return out
 
     def torque_model(self) -> TorqueModel:

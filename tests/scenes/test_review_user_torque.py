@@ -254,3 +254,26 @@ def test_a_stiff_potential_that_is_the_torques_runs():
         traj = liebody.integrate(scene, q0=quaternion.exp([0.3, 0.2, 0.1]),
                                  L0=[0.5, 0.2, 1.0], dt=1e-4, steps=2000, method="splitting4")
     assert np.ptp(traj.energy) < 1e-6 * np.abs(traj.energy).max()
+
+
+def test_the_potential_takes_a_time_per_orientation():
+    """potential(q, t) broadcasts t against q's leading axes, as GravityGradient's does, so
+    that the energy of a time-dependent potential along a run is one call (float(t) raised
+    TypeError for an array)."""
+    params = np.array([[0.3, -0.2, 2.0, 0.8], [1.0, 0.5, -0.4, 0.3]])
+    scene = liebody.TorqueBody(BODY, _pulsing_gravity, potential=_pulsing_potential,
+                               params=params, orientation_only=True)
+    q0, L0 = _states(2, seed=3)
+    traj = liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=50, t0=0.4)
+    q = traj.q / np.linalg.norm(traj.q, axis=-1, keepdims=True)
+    V = scene.potential(q, traj.t)
+    expected = [[_pulsing_potential(t, qk, params[i]) for qk, t in zip(q[i], traj.t,
+                                                                        strict=True)]
+                for i in range(2)]
+    np.testing.assert_array_equal(V, expected)
+    np.testing.assert_array_equal(scene.potential(q[:, 7], 1.5),
+                                  [_pulsing_potential(1.5, q[i, 7], params[i]) for i in range(2)])
+    with pytest.raises(ValueError, match=r"t of shape \(3,\) does not broadcast"):
+        scene.potential(q, [0.0, 1.0, 2.0])
+    with pytest.raises(ValueError, match=r"body axis first.*N = 2"):
+        scene.potential(q[0])
