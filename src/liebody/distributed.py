@@ -168,6 +168,13 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     from liebody.scenes import Scene
 
     if not isinstance(scene, Scene):
+        from liebody._integrate import _is_coupled
+
+        if _is_coupled(scene):
+            raise TypeError(f"liebody.distributed.integrate splits an ensemble of independent "
+                            f"bodies over a cluster; {type(scene).__name__} is one system of "
+                            f"coupled bodies (every kick reads all of them): integrate it "
+                            f"with liebody.integrate")
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     q = _as_unit_q("q0", q0)

@@ -542,3 +542,18 @@ def test_the_bodies_per_task_advised_are_those_that_fit_in_half_a_workers_limit(
     fit = int(re.search(r"give bodies_per_task = (\d+)", str(info.value)).group(1))
     k, half = 20_001, 50_000_000 // 2
     assert k * (8 + 56 * fit) <= half < k * (8 + 56 * (fit + 1))
+
+
+def test_coupled_bodies_are_refused_as_one_system(inproc, monkeypatch):
+    """A DipoleLattice is one system (each kick reads every body): refused by name before
+    any task. It was told it was not a liebody scene, naming FreeBody, HeavyTop and the
+    like, as if it were a wrong argument."""
+    from liebody.coupled import DipoleLattice
+
+    bodies = liebody.RigidBody.batch(np.tile([1.0, 2.0, 3.0], (3, 1)))
+    lattice = DipoleLattice(bodies, [[0, 0, 0], [0, 1, 0], [1, 0, 0]], [0, 0, 1])
+    _no_tasks(inproc, monkeypatch)
+    with pytest.raises(TypeError, match=r"DipoleLattice is one system of coupled bodies.*"
+                                        r"liebody\.integrate"):
+        liebody.distributed.integrate(lattice, L0=np.zeros((3, 3)), dt=0.01, steps=10,
+                                      client=inproc)
