@@ -124,6 +124,7 @@ def _failing(torque):
                          torque), q0, L0
 
 
+@pytest.mark.kernel
 def test_a_failing_stepper_call_leaves_the_state_before_the_call():
     """liebody.Stepper promises the stepper as before a failing call; the coupled one
     was left with the failing kick's NaN momentum (and the other bodies half kicked)."""
@@ -138,6 +139,7 @@ def test_a_failing_stepper_call_leaves_the_state_before_the_call():
     assert np.array_equal(st.L, free.L[:, -1])  # (zero torque so far: free bodies)
 
 
+@pytest.mark.kernel
 @pytest.mark.parametrize("use_stepper", [False, True])
 def test_a_torque_that_raises_at_a_later_kick_of_the_step_is_named_as_the_cause(
         use_stepper):
@@ -303,6 +305,7 @@ def test_a_coupled_trajectory_is_shown_in_one_line():
     assert repr(info.value.trajectory).endswith("samples=6, t=[0, 0.5], failed at t=0.6)")
 
 
+@pytest.mark.kernel
 def test_the_potential_and_the_torque_check_the_orientations_they_are_given():
     """The compiled model reads every body's row without bounds checks: the potential of
     4 orientations for a lattice of 6 bodies read past the array (V = -5.3e276), the
@@ -360,6 +363,7 @@ def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
                           q0=q0, L0=L0, dt=0.01, steps=50)
 
 
+@pytest.mark.kernel
 def test_ctrl_c_in_a_stepper_call_keeps_the_steps_done():
     """Ctrl-C as a step's call returns (simulated: the call runs, then raises
     KeyboardInterrupt, as Python delivers a pending SIGINT): the coupled Stepper let a
