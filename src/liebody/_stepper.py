@@ -47,6 +47,7 @@ from liebody.scenes import Scene
 
 __all__ = ["Stepper"]
 
+#: the dtype of the state and the controls (the setter of ``u`` compares it by identity)
 _FLOAT64 = np.dtype(np.float64)
 
 #: body-steps in the first slice of a stepper that has not measured its cost yet (the
@@ -146,10 +147,10 @@ class Stepper:
     a non-finite state :class:`~liebody.errors.IntegrationError` (where ``integrate()``
     returns the samples before it, with a ``RuntimeWarning``). The stepper is left as
     it was before the call: the failed call changes nothing, and ``exc.step`` tells
-    how many of its steps succeeded. For
-    an ensemble the failing bodies are left at their state before the call, marked in
-    :attr:`failed` and skipped by later calls (a ``RuntimeWarning`` says which); the
-    others go on. Setting the state clears the marks.
+    how many of its steps succeeded. For an ensemble the failing bodies are left at
+    their state before the call, marked in :attr:`failed` and skipped by later calls (a
+    ``RuntimeWarning`` says which); the others go on. Setting the state clears the
+    marks.
 
     *Ctrl-C.* A long ``step(n)`` runs in slices of about 0.2 s (sized by their measured
     cost), so Ctrl-C stops it within about that whatever a step costs; the slices
