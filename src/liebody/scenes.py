@@ -663,7 +663,9 @@ class TorqueBody(Scene):
             self._check_promise(model)
             if self.potential_fn is not None and not self.controls:
                 self._check_gradient(model)
-        if self.time_dependent_potential:  # (the energy diagnostics NaN)
+        if self.time_dependent_potential or (self.controls and self.potential_fn is not None):
+            # the energy diagnostics NaN: the kernels cannot call a Python potential, and
+            # without it the running 'energy' would be the kinetic energy alone
             model = dataclasses.replace(model, time_dependent=True)
         return model
 
@@ -776,7 +778,10 @@ class ControlledBody(TorqueBody):
     potential, params, orientation_only, free_flow
         As for :class:`TorqueBody` (with ``params``, ``torque(t, q, L, p, u)``).
         ``orientation_only=True`` promises that the torque does not depend on ``L`` (``u``
-        and ``t`` are allowed): kicks are then explicit and exact.
+        and ``t`` are allowed): kicks are then explicit and exact. The controls do work,
+        so a controlled body is not conservative, with a potential or without:
+        ``Trajectory.energy`` includes the potential, no energy is checked at the end of a
+        run, and with a potential the energy diagnostics are NaN.
 
     Examples
     --------
@@ -806,6 +811,10 @@ class ControlledBody(TorqueBody):
         object.__setattr__(self, "controls", int(controls))
         super().__init__(body, torque, potential=potential, params=params,
                          orientation_only=orientation_only, free_flow=free_flow)
+
+    def _capabilities(self) -> Capabilities:
+        # the controls do work: no potential makes the energy a constant of the run
+        return Capabilities(torque=super()._capabilities().torque, conservative=False)
 
 
 @dataclass(frozen=True, init=False, eq=False)

@@ -277,3 +277,31 @@ def test_the_potential_takes_a_time_per_orientation():
         scene.potential(q, [0.0, 1.0, 2.0])
     with pytest.raises(ValueError, match=r"body axis first.*N = 2"):
         scene.potential(q[0])
+
+
+@njit
+def _gravity_and_command(t, q, L, p, u):
+    return _gravity_p(t, q, L, p) + u
+
+
+def test_a_controlled_body_with_a_potential_is_not_checked_as_conservative():
+    """The controls do work: the energy changes by the integral of u . omega (checked here
+    along the run). The scene was declared conservative when given a potential, and the
+    end-of-run check warned 'the energy went from 2.06 to 9.07, more than 1% ... (the step
+    may be too large ...)' on a correct run."""
+    arm, u = np.array([0.3, -0.2, 2.0]), np.array([0.5, 0.0, 0.3])
+    scene = liebody.ControlledBody(BODY, _gravity_and_command, controls=3,
+                                   potential=_gravity_potential_p, params=arm,
+                                   orientation_only=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = liebody.integrate(scene, q0=quaternion.exp([0.3, 0.2, 0.1]),
+                                 L0=[0.5, 0.2, 1.0], dt=1e-3, steps=3000, controls=u,
+                                 method="splitting4", diagnostics=True)
+    assert not scene.capabilities.conservative
+    assert np.isnan(traj.diagnostics["max_energy_error"])
+    power = (traj.L / BODY.moments) @ u
+    work = cumulative_simpson(power, x=traj.t, initial=0.0)
+    E = traj.energy
+    assert abs(E[-1] - E[0]) > 1.0  # (the controls do work)
+    np.testing.assert_allclose(E - E[0], work, atol=1e-9)
