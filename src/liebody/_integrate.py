@@ -395,7 +395,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if not isinstance(scene, Scene):
         if _is_coupled(scene):
             return _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method,
-                                      save_every, progress, diagnostics, controls, t0)
+                                      save_every, progress, diagnostics, controls, t0,
+                                      threads, simd)
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
@@ -494,7 +495,7 @@ def _is_coupled(scene) -> bool:
 
 
 def _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method, save_every,
-                       progress, diagnostics, controls, t0):
+                       progress, diagnostics, controls, t0, threads=None, simd=None):
     """:func:`integrate` for :class:`liebody.CoupledBodies` (``liebody.coupled``)."""
     from liebody.coupled import integrate_coupled
 
@@ -519,7 +520,7 @@ def _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method, save_eve
     t = _sample_times(n_steps, save_every, dt, scene.n_bodies, RUN_BYTES_PER_BODY)
     return integrate_coupled(scene, q0=q0, L0=L0, omega0=omega0, dt=dt, n_steps=n_steps,
                              save_every=save_every, method=method, progress=bool(progress),
-                             t0=t0, t=t)
+                             t0=t0, t=t, threads=threads, simd=simd)
 
 
 def _bodies(scene, q0: np.ndarray, m0: np.ndarray) -> int | None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -657,12 +658,39 @@ def _check_torque(scene, q, m, t0):
                          f"{other[i].tolist()} at L = 2 L0 + 1. {why}")
 
 
-def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method, progress,
-                      t0, t) -> CoupledTrajectory:
-    """:func:`liebody.integrate` for :class:`CoupledBodies` (after the shared checks)."""
-    from liebody import _methods
-    from liebody._engine import interrupt_after_call, time_slices
+@contextmanager
+def _numba_threads(n):
+    """numba's thread count set to ``n`` (at most numba's, ``None``: as it is) for the
+    block, the one before restored after."""
+    if n is None:
+        yield
+        return
+    import numba
 
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
+def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method, progress,
+                      t0, t, threads=None, simd=None) -> CoupledTrajectory:
+    """:func:`liebody.integrate` for :class:`CoupledBodies` (after the shared checks):
+    ``threads`` sets numba's thread count for the run (the built-in model's torque and a
+    user's ``prange`` run on them), ``simd=False`` is refused."""
+    from liebody import _methods
+    from liebody._engine import interrupt_after_call, resolve_threads, time_slices
+
+    if simd is not None and not isinstance(simd, bool | np.bool_):
+        raise TypeError(f"simd must be True, False or None, got {type(simd).__name__}")
+    if simd is not None and not simd:
+        raise ValueError("simd=False runs each body of an ensemble on the scalar drivers, "
+                         "bit for bit its one-body run; the bodies of a coupled system have "
+                         "no one-body run (the kicks couple them), and their free flows run "
+                         "on the SIMD kernels: leave simd None")
+    n_threads = None if threads is None else resolve_threads(threads)
     method = _methods.get(scene.default_method if method is None else method)
     q, m = _initial(scene, q0, L0, omega0)
     run = _prepare(scene, method, q, m, dt)
@@ -675,14 +703,16 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     done = saved = 0
     status, body = 0, -1
     try:
-        for size in time_slices(n_steps, progress, "step", max(1, 4096 // n)):
-            with interrupt_after_call():
-                d, s, status, body = run.run(t0, done, size, save_every, done + size == n_steps,
-                                             q_out, m_out, 1 + saved)
-                done += d
-                saved += s
-            if status != 0:
-                break
+        with _numba_threads(n_threads):
+            for size in time_slices(n_steps, progress, "step", max(1, 4096 // n)):
+                with interrupt_after_call():
+                    d, s, status, body = run.run(t0, done, size, save_every,
+                                                 done + size == n_steps, q_out, m_out,
+                                                 1 + saved)
+                    done += d
+                    saved += s
+                if status != 0:
+                    break
     except KeyboardInterrupt:
         traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
                            m_out[:, :1 + saved].copy(), "interrupted")

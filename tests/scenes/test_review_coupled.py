@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import warnings
 
+import numba
 import numpy as np
 import pytest
 from numba import njit
@@ -410,3 +411,33 @@ def test_a_torque_that_draws_noise_is_not_taken_for_one_that_reads_L():
                           _noisy, params=scene.params)
     tr = liebody.integrate(noisy, q0=q0, L0=L0, dt=0.01, steps=10)
     assert tr.status == "complete" and np.isfinite(tr.L).all()
+
+
+@njit  # (not cached: numba.get_num_threads reads a dynamic global)
+def _counting_threads(t, q, L, p, out):
+    for i in range(q.shape[0]):
+        out[i, 0] = out[i, 1] = 0.0
+        out[i, 2] = 1e-3 * numba.get_num_threads()
+
+
+def test_integrate_runs_a_coupled_system_on_the_threads_it_is_given():
+    """integrate(threads=...) was ignored for a coupled system (its torque ran on all of
+    numba's threads whatever was asked), and simd=False accepted though no body runs
+    alone. A torque that reads numba's thread count (a constant spin-up about axis 3 of
+    1e-3 per thread) shows the count it ran on; numba's setting is restored after."""
+    body = liebody.RigidBody.batch([[1.0, 2.0, 3.0]] * 2)
+    scene = CoupledBodies(body, _counting_threads)
+    before = numba.get_num_threads()
+    for threads in (1, 2):
+        tr = liebody.integrate(scene, q0=[1, 0, 0, 0], L0=[0, 0, 1.0], dt=0.1, steps=10,
+                               threads=threads)
+        used = min(threads, numba.config.NUMBA_NUM_THREADS)
+        np.testing.assert_allclose(tr.L[:, -1, 2] - 1.0, 1e-3 * used * 1.0, rtol=0,
+                                   atol=1e-14)  # (20 roundings of numbers near 1)
+        assert numba.get_num_threads() == before
+    with pytest.raises(ValueError, match="threads must be a positive integer"):
+        liebody.integrate(scene, q0=[1, 0, 0, 0], L0=[0, 0, 1.0], dt=0.1, steps=10,
+                          threads=0)
+    with pytest.raises(ValueError, match=r"simd=False .* no one-body run"):
+        liebody.integrate(scene, q0=[1, 0, 0, 0], L0=[0, 0, 1.0], dt=0.1, steps=10,
+                          simd=False)
