@@ -618,6 +618,26 @@ def _initial(scene, q0, L0, omega0, name_q="q0"):
             np.ascontiguousarray(np.broadcast_to(m, (n, 3)), dtype=float))
 
 
+def _check_potential(scene, q, t0) -> None:
+    """The potential (called at the end of the run for the energy check and by
+    ``Trajectory.energy``) called once at the initial state: one finite number, or a
+    clear error before the run rather than at its end."""
+    if scene.potential_function is None:
+        return
+    try:
+        V = np.asarray(scene.potential_function(float(t0), q, scene.params))
+    except Exception as exc:
+        raise ValueError(f"the coupled potential raised {type(exc).__name__} at the initial "
+                         f"state: {exc}. It must be potential(t, q, params) giving V, one "
+                         f"number") from exc
+    if V.shape != () or V.dtype.kind not in "biuf":
+        raise ValueError(f"the coupled potential must give one real number V, got "
+                         f"{type(V.tolist()).__name__} of shape {V.shape} at the initial state")
+    if not np.isfinite(V):
+        raise ValueError(f"the coupled potential is not finite at the initial state "
+                         f"(V = {V.tolist()})")
+
+
 def _clock_start(name, value, dt) -> float:
     """A finite start time from which steps of ``dt`` advance the clock."""
     t0 = float(as_float_array(name, value, shape=()))
@@ -695,6 +715,7 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     q, m = _initial(scene, q0, L0, omega0)
     run = _prepare(scene, method, q, m, dt)
     _check_torque(scene, q, m, t0)
+    _check_potential(scene, q, t0)
     n = scene.n_bodies
     k = t.shape[0]
     q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))

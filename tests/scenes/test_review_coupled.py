@@ -337,8 +337,8 @@ def test_the_potential_and_the_torque_check_the_orientations_they_are_given():
 def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
     """The end-of-run energy check calls the potential; a (plain Python) potential that
     raised there made integrate() raise it, the computed trajectory lost. It is a
-    warning now, the run returned; a NaN potential is still warned about as not
-    finite."""
+    warning now, the run returned; a potential that turns NaN is still warned about as
+    not finite."""
     scene, q0, L0 = _system(3, seed=43)
     calls = []
 
@@ -348,8 +348,9 @@ def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
             raise RuntimeError("no more energy")
         return heisenberg_potential(t, q, p)
 
-    def nan(t, q, p):
-        return float("nan")
+    def nan_later(t, q, p):  # (finite at the start, checked there)
+        calls.append(t)
+        return heisenberg_potential(t, q, p) if len(calls) < 3 else float("nan")
 
     body = liebody.RigidBody.batch(scene.moments, check_triangle=False)
     with pytest.warns(liebody.InvariantWarning, match="not checked: the potential raised "
@@ -359,8 +360,10 @@ def test_a_potential_that_fails_at_the_energy_check_does_not_lose_the_run():
                                q0=q0, L0=L0, dt=0.01, steps=50)
     ref = liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=50)
     assert np.array_equal(tr.L, ref.L) and tr.status == "complete"
+    calls.clear()
     with pytest.warns(liebody.InvariantWarning, match="not finite at the ends"):
-        liebody.integrate(CoupledBodies(body, heisenberg_torque, nan, params=scene.params),
+        liebody.integrate(CoupledBodies(body, heisenberg_torque, nan_later,
+                                        params=scene.params),
                           q0=q0, L0=L0, dt=0.01, steps=50)
 
 
@@ -441,3 +444,28 @@ def test_integrate_runs_a_coupled_system_on_the_threads_it_is_given():
     with pytest.raises(ValueError, match=r"simd=False .* no one-body run"):
         liebody.integrate(scene, q0=[1, 0, 0, 0], L0=[0, 0, 1.0], dt=0.1, steps=10,
                           simd=False)
+
+
+def test_a_potential_that_cannot_give_the_energy_is_named_before_the_run():
+    """A potential of the wrong signature, or one that gives no single finite number,
+    ran the whole integration and failed only at the end (the energy check), the run
+    lost; it is named at the start, as a one-body scene's potential is."""
+    scene, q0, L0 = _system(3, seed=49)
+    body = liebody.RigidBody.batch(scene.moments, check_triangle=False)
+
+    def two_arguments(t, q):
+        return 0.0
+
+    def per_body(t, q, p):
+        return np.zeros(q.shape[0])
+
+    def infinite(t, q, p):
+        return float("inf")
+
+    for potential, words in ((two_arguments, "the coupled potential raised TypeError at "
+                                             "the initial state"),
+                             (per_body, r"one real number V, got list of shape \(3,\)"),
+                             (infinite, r"not finite at the initial state \(V = inf\)")):
+        scene2 = CoupledBodies(body, heisenberg_torque, potential, params=scene.params)
+        with pytest.raises(ValueError, match=words):
+            liebody.integrate(scene2, q0=q0, L0=L0, dt=0.01, steps=10)
