@@ -105,7 +105,9 @@ class CoupledBodies:
     potential
         Optional ``potential(t, q, params) -> float``, the ``V`` the torque derives
         from (compiled or plain Python): the energy of the trajectory and the energy
-        check at the end of a run use it. Without it the energy is the kinetic part.
+        check at the end of a run use it; :func:`liebody.integrate` calls it at the
+        start and refuses a torque that does not derive from it (central differences
+        along one rotation of all bodies). Without it the energy is the kinetic part.
     params
         Optional per-body parameters ``(N, k)`` (their first axis is the body; passed
         to the torque as a float64 C-contiguous array, ``(N, 0)`` when not given).
@@ -638,6 +640,42 @@ def _check_potential(scene, q, t0) -> None:
                          f"(V = {V.tolist()})")
 
 
+def _check_derivation(scene, q, m, t0) -> None:
+    """With a potential, the torque must be minus its derivative under rotations of the
+    bodies (body frame). Checked along one random rotation of all bodies at once,
+    ``q_i -> q_i exp(s e_i / 2)``: ``dV/ds = -sum_i e_i . N_i`` at ``s = 0``, against
+    central differences at ``s = h`` and ``h / 2`` (judged only where the two agree: a
+    smooth ``V``). A sign error or a torque in the space frame is refused."""
+    if scene.potential_function is None:
+        return
+    from liebody import quaternion as Q
+
+    e = np.random.default_rng(20241126).normal(size=q.shape[:1] + (3,))
+    N = scene.evaluate_torque(q, m, t0)
+    want = -float(np.sum(e * N))
+    h = 1e-4
+
+    def V(s):
+        return float(scene.potential(Q.multiply(q, Q.exp(s * e)), t0))
+
+    try:
+        V0 = abs(V(0.0))
+        fd = [(V(a) - V(-a)) / (2.0 * a) for a in (h, 0.5 * h)]
+    except Exception:  # (the potential's own check names its failures)
+        return
+    noise = 16.0 * np.finfo(float).eps * V0 / h  # (rounding of V in the differences)
+    scale = abs(fd[1]) + abs(want)
+    if abs(fd[0] - fd[1]) > 1e-4 * scale + noise:  # not smooth enough here to judge
+        return
+    if abs(fd[1] - want) > 1e-2 * scale + 8.0 * noise:
+        raise ValueError(
+            f"the coupled torque does not derive from the potential: along a rotation of "
+            f"every body q_i -> q_i exp(s e_i / 2) at the initial state, dV/ds = "
+            f"{fd[1]:.6g} by central differences, and -sum_i e_i . N_i = {want:.6g} from "
+            f"the torque. It must be N_i = -dV/d(eps_i), in body i's own frame (a sign, or "
+            f"a torque in the space frame?)")
+
+
 def _clock_start(name, value, dt) -> float:
     """A finite start time from which steps of ``dt`` advance the clock."""
     t0 = float(as_float_array(name, value, shape=()))
@@ -716,6 +754,7 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     run = _prepare(scene, method, q, m, dt)
     _check_torque(scene, q, m, t0)
     _check_potential(scene, q, t0)
+    _check_derivation(scene, q, m, t0)
     n = scene.n_bodies
     k = t.shape[0]
     q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))

@@ -469,3 +469,39 @@ def test_a_potential_that_cannot_give_the_energy_is_named_before_the_run():
         scene2 = CoupledBodies(body, heisenberg_torque, potential, params=scene.params)
         with pytest.raises(ValueError, match=words):
             liebody.integrate(scene2, q0=q0, L0=L0, dt=0.01, steps=10)
+
+
+@njit(cache=True)
+def _flipped_torque(t, q, L, p, out):
+    heisenberg_torque(t, q, L, p, out)
+    for i in range(q.shape[0]):
+        for a in range(3):
+            out[i, a] = -out[i, a]
+
+
+@njit(cache=True)
+def _space_frame_torque(t, q, L, p, out):
+    heisenberg_torque(t, q, L, p, out)
+    for i in range(q.shape[0]):
+        out[i] = _rotate(q[i], out[i].copy())
+
+
+def test_a_torque_that_does_not_derive_from_the_given_potential_is_refused():
+    """The docs define the torque as minus the potential's derivative under a rotation of
+    each body in its own frame. A sign error, or the torque in the space frame, ran
+    (only the end-of-run energy check could hint at it); both are refused at the start,
+    from central differences of V along one rotation of all bodies. The right torque,
+    the dipole lattice's, and a torque without a potential run."""
+    scene, q0, L0 = _system(4, seed=51)
+    body = liebody.RigidBody.batch(scene.moments, check_triangle=False)
+    for wrong in (_flipped_torque, _space_frame_torque):
+        bad = CoupledBodies(body, wrong, heisenberg_potential, params=scene.params)
+        with pytest.raises(ValueError, match="does not derive from the potential"):
+            liebody.integrate(bad, q0=q0, L0=L0, dt=0.01, steps=10)
+        liebody.integrate(CoupledBodies(body, wrong, params=scene.params), q0=q0, L0=L0,
+                          dt=0.01, steps=10)  # (no potential: nothing to check against)
+    liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=10)
+    from test_coupled import _lattice
+
+    lat, q, *_ = _lattice(n=8, cutoff=1.5)
+    liebody.integrate(lat, q0=q, L0=np.zeros(3), dt=0.01, steps=10)
