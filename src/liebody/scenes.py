@@ -562,6 +562,17 @@ class TorqueBody(Scene):
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "orientation_only", orientation_only)
 
+    def take(self, idx) -> TorqueBody:
+        """As :meth:`Scene.take`; bodies of a scene whose torque passed its checks pass
+        them (their rows are among the scene's: not checked again, at every run of an
+        ensemble that plans its body 0 apart), and the bodies' potential is time-dependent
+        as the scene's is (the same conservative flag for every part)."""
+        out = super().take(idx)
+        for name in ("checked", "time_dependent_potential"):
+            if _MEMO + name in vars(self):
+                vars(out)[_MEMO + name] = vars(self)[_MEMO + name]
+        return out
+
     @property
     def batch_shape(self) -> tuple[int, ...]:
         rows = () if self.params is None or self.params.ndim == 1 else self.params.shape[:1]
@@ -579,8 +590,7 @@ class TorqueBody(Scene):
 
     #: the times and orientations at which :attr:`time_dependent_potential` compares a
     #: potential ``(t, q, p)`` (generic numbers: no common potential is periodic in them)
-    _PROBE_TIMES: ClassVar[tuple] = (0.0, 0.3183098861837907, 1.4142135623730951,
-                                     2.718281828459045, 31.3, 142.85714285714286)
+    _PROBE_TIMES: ClassVar[tuple] = (0.0, 0.3183098861837907, 2.718281828459045, 31.3)
     _PROBE_Q: ClassVar[tuple] = ((0.8792968436751748, 0.2398082300932295,
                                   -0.35971234513984424, 0.1998401917443579),
                                  (0.5, -0.5, 0.5, 0.5))
@@ -659,10 +669,11 @@ class TorqueBody(Scene):
         import dataclasses
 
         model = TorqueModel.user(self.torque, self.controls, self.params)
-        if self.orientation_only:
+        if self.orientation_only and not vars(self).get(_MEMO + "checked"):
             self._check_promise(model)
             if self.potential_fn is not None and not self.controls:
                 self._check_gradient(model)
+            vars(self)[_MEMO + "checked"] = True
         if self.time_dependent_potential or (self.controls and self.potential_fn is not None):
             # the energy diagnostics NaN: the kernels cannot call a Python potential, and
             # without it the running 'energy' would be the kinetic energy alone
@@ -678,37 +689,41 @@ class TorqueBody(Scene):
         """The torque must be minus the derivative of the potential under a body-frame
         rotation, ``N = -dV/d(eps)`` with ``q -> q exp(eps / 2)``: checked at ``t = 0`` at
         the probe orientations for body 0, the middle and the last body, by central
-        differences of fourth order (step 1e-4 rad; relative tolerance 1e-3, far above their
-        error, far below a sign, a factor or a torque in the space frame). A potential that
-        raises or is not finite there is not judged (the run's check reports it).
-        Else ``ValueError``: the energy diagnostics would follow another system's energy,
-        and the end-of-run check blame the step."""
-        from liebody import quaternion
-
-        h = 1e-4
+        differences (step 1e-5 rad; relative tolerance 1e-3, far above their error, far
+        below a sign, a factor or a torque in the space frame). A potential that raises or
+        is not finite there is not judged (the run's check reports it). Else
+        ``ValueError``: the energy diagnostics would follow another system's energy, and
+        the end-of-run check blame the step."""
+        h = 1e-5
+        c, s = math.cos(h / 2.0), math.sin(h / 2.0)
         rows = model.params.reshape(-1, model.params.shape[-1])
         for i in sorted({0, len(rows) // 2, len(rows) - 1}):
-            for probe in self._PROBE_Q:
-                q = np.array(probe)
+            p = rows[i]
 
-                def V(eps, k, i=i, q=q):
-                    turn = np.zeros(4)
-                    turn[0], turn[1 + k] = math.cos(eps / 2.0), math.sin(eps / 2.0)
-                    r = quaternion.multiply(q, turn)
-                    if self.params is None:
-                        return float(self.potential_fn(r))
-                    return float(self.potential_fn(0.0, r, rows[i]))
+            def V(r, p=p):
+                r = np.array(r)
+                return float(self.potential_fn(r) if self.params is None
+                             else self.potential_fn(0.0, r, p))
 
+            for w, x, y, z in self._PROBE_Q:
+                def turned(k, sk, w=w, x=x, y=y, z=z):  # q (c, sk e_k) = q exp(+-h e_k / 2)
+                    e = [0.0, 0.0, 0.0]
+                    e[k] = sk
+                    return (w * c - (x * e[0] + y * e[1] + z * e[2]),
+                            c * x + w * e[0] + (y * e[2] - z * e[1]),
+                            c * y + w * e[1] + (z * e[0] - x * e[2]),
+                            c * z + w * e[2] + (x * e[1] - y * e[0]))
+
+                turns = [(turned(k, s), turned(k, -s)) for k in range(3)]
                 try:
-                    grad = np.array([(8.0 * (V(h, k) - V(-h, k)) - (V(2 * h, k) - V(-2 * h, k)))
-                                     / (12.0 * h) for k in range(3)])
-                    size = abs(V(0.0, 0))
-                    torque = np.asarray(model(0.0, q, np.array(self._PROBE_L),
-                                              np.zeros(max(self.controls, 1)), i), dtype=float)
+                    grad = np.array([(V(a) - V(b)) / (2.0 * h) for a, b in turns])
+                    size = abs(V((w, x, y, z)))
+                    torque = np.asarray(model(0.0, np.array([w, x, y, z]),
+                                              np.array(self._PROBE_L), None, i), dtype=float)
                 except Exception:  # (the run's checks report it)
                     continue
-                if not (np.isfinite(grad).all() and np.isfinite(size)
-                        and np.isfinite(torque).all()):
+                if not (np.isfinite(grad).all() and math.isfinite(size)
+                        and torque.shape == (3,) and np.isfinite(torque).all()):
                     continue
                 off = np.linalg.norm(torque + grad)
                 if off <= 1e-3 * (np.linalg.norm(torque) + np.linalg.norm(grad)) + 1e-8 * size:
@@ -716,7 +731,7 @@ class TorqueBody(Scene):
                 who = f" (body {i}, row {i} of params)" if len(rows) > 1 else ""
                 raise ValueError(
                     f"the torque {model.signature} is not minus the derivative of the "
-                    f"potential{who}: at t = 0, q = {q.tolist()} it gives "
+                    f"potential{who}: at t = 0, q = {[w, x, y, z]} it gives "
                     f"{torque.tolist()}, and -dV/d(eps) is {(-grad).tolist()} (q -> q exp(eps "
                     f"/ 2), a rotation in the body frame; central differences). The potential "
                     f"of a conservative torque N gives N = -dV/d(eps): check its signs and "

@@ -365,3 +365,16 @@ def test_every_body_of_a_controlled_ensemble_follows_its_own_row(torque, orienta
                                  **kw)
     np.testing.assert_array_equal(permuted.q, traj.q[order])
     np.testing.assert_array_equal(permuted.L, traj.L[order])
+
+
+def test_bodies_taken_from_a_scene_keep_its_time_dependence():
+    """A part of an ensemble is as conservative as the whole: body 1's own potential does
+    not change in time (amplitude 0), the scene's does."""
+    params = np.array([[0.3, -0.2, 2.0, 0.8], [1.0, 0.5, -0.4, 0.0], [0.0, 0.2, 1.0, 0.8]])
+    scene = liebody.TorqueBody(BODY, _pulsing_gravity, potential=_pulsing_potential,
+                               params=params, orientation_only=True)
+    assert scene.time_dependent_potential
+    for part in (scene.take(1), scene.take(slice(1, 2))):
+        assert part.time_dependent_potential
+        assert not part.capabilities.conservative
+        assert part.torque_model().time_dependent
