@@ -378,3 +378,56 @@ def test_bodies_taken_from_a_scene_keep_its_time_dependence():
         assert part.time_dependent_potential
         assert not part.capabilities.conservative
         assert part.torque_model().time_dependent
+
+
+@pytest.mark.parametrize("simd", [False, True])
+def test_params_of_any_dtype_and_layout_give_the_same_run(simd):
+    """Integers, Fortran order, strided views and float32 are converted to the same float64
+    rows: the same numbers bit for bit."""
+    ref = np.array([[1, 2, 3], [0, 1, 0], [2, 0, 1], [-1, 1, 1]])
+    q0, L0 = _states(4, seed=4)
+
+    def run(params):
+        scene = liebody.TorqueBody(BODY, _gravity_p, params=params, orientation_only=True)
+        return liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=100, simd=simd)
+
+    base = run(ref.astype(float))
+    for params in (ref, np.asfortranarray(ref.astype(float)),
+                   np.repeat(ref.astype(float), 2, axis=1)[:, ::2],
+                   np.hstack([ref.astype(float), np.ones((4, 2))])[:, :3],
+                   ref.astype(np.float32)):
+        traj = run(params)
+        np.testing.assert_array_equal(traj.q, base.q)
+        np.testing.assert_array_equal(traj.L, base.L)
+
+
+@njit
+def _scribbles(t, q, L, u):
+    """The commanded torque of u, after writing over its inputs q, L and u."""
+    tau = np.array([u[0] + 0.1 * q[1], u[1] - 0.05 * q[2], 0.2 * q[3]])
+    q[0], q[2], L[0], u[1] = 7.0, 1.0, -3.0, 5.0
+    return tau
+
+
+@njit
+def _clean(t, q, L, u):
+    return np.array([u[0] + 0.1 * q[1], u[1] - 0.05 * q[2], 0.2 * q[3]])
+
+
+@pytest.mark.parametrize("n, simd", [(None, False), (4, False), (4, True)])
+def test_a_torque_that_writes_over_its_state_and_controls_changes_nothing(n, simd):
+    """q, L and u are the torque's own copies: a torque that writes to them gives the run of
+    one that does not, bit for bit."""
+    u = np.array([0.3, -0.2])
+    q0, L0 = _states(n or 1, seed=8)
+    if n is None:
+        q0, L0 = q0[0], L0[0]
+    runs = []
+    for torque in (_scribbles, _clean):
+        for oo in (True, False):
+            scene = liebody.ControlledBody(BODY, torque, controls=2, orientation_only=oo)
+            runs.append(liebody.integrate(scene, q0=q0, L0=L0, dt=0.01, steps=50, controls=u,
+                                          simd=simd))
+    for a, b in ((runs[0], runs[2]), (runs[1], runs[3])):
+        np.testing.assert_array_equal(a.q, b.q)
+        np.testing.assert_array_equal(a.L, b.L)
