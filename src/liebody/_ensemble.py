@@ -94,6 +94,7 @@ class EnsembleRun:
     def sampled(self) -> Trajectory:
         from liebody._kernels.exact import exact_flow_bodies
 
+        self.info = {"simd": False}  # (no SIMD kernel evaluates the exact flow)
         moments = np.ascontiguousarray(np.broadcast_to(self.scene.moments, (self.n, 3)))
         t, q, m = self.t, self.q_out, self.m_out
         chunks = self._chunks(self.n)

@@ -269,8 +269,8 @@ class Stepper:
 
         self._stale = False
         self._fast = False
-        if self._method.sampled:
-            self.info: dict = {}
+        if self._method.sampled:  # (an ensemble's: no SIMD kernel, as integrate() says)
+            self.info: dict = {} if self._n is None else {"simd": False}
             self._plan_m = None
             return
         from liebody._kernels.driver import RUNNERS

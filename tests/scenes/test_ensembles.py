@@ -304,3 +304,23 @@ def test_unwrapped_euler_angles_of_an_ensemble_with_a_failed_body():
     for i in (0, 2):
         one = liebody.integrate(scene, L0=Ls[i], dt=0.1, steps=200, method="rattle")
         np.testing.assert_array_equal(angles[i], one.euler_angles(unwrap=True))
+
+
+ONE = liebody.RigidBody([1.0, 2.0, 3.0])
+
+
+@pytest.mark.filterwarnings("ignore::liebody.InvariantWarning")  # baselines drift
+@pytest.mark.parametrize("method", [m.name for m in liebody.methods()
+                                    if m.supports(liebody.FreeBody(ONE))])
+def test_every_ensembles_info_says_whether_simd_ran(method):
+    """integrate() promises Trajectory.info["simd"] for an ensemble (or per group): for
+    every method, the exact flow's included (it had no key), and a Stepper's info alike."""
+    scene = liebody.FreeBody(ONE)
+    L0 = np.random.default_rng(0).normal(size=(4, 3))
+    tr = liebody.integrate(scene, L0=L0, dt=0.01, steps=5, method=method)
+    st = liebody.Stepper(scene, L0=L0, dt=0.01, method=method)
+    for info in (tr.info, st.info):
+        groups = info.get("groups", [info])
+        assert all(isinstance(g["simd"], bool) for g in groups)
+    if method == "exact":
+        assert tr.info["simd"] is False and st.info["simd"] is False
