@@ -123,3 +123,31 @@ def interrupt_child(script: str, args: list[str], wait: float) -> tuple[list[dic
     lines = [json.loads(x) for x in (first + rest).splitlines() if x.strip()]
     assert lines and proc.returncode == 0, (proc.returncode, stderr)
     return lines, latency
+
+
+def stepper_states(stepper, calls: int, n: int):
+    """The states and times ``(q, L, t)`` of a stepper at the start and after each of
+    ``calls`` calls ``step(n)`` (arrays with a leading axis of ``calls + 1``)."""
+    qs, Ls, ts = [stepper.q], [stepper.L], [stepper.t]
+    for _ in range(calls):
+        stepper.step(n)
+        qs.append(stepper.q)
+        Ls.append(stepper.L)
+        ts.append(stepper.t)
+    return np.array(qs), np.array(Ls), np.array(ts)
+
+
+class InterruptingClock:
+    """``time`` for a module (the stepper's) whose ``perf_counter`` raises
+    KeyboardInterrupt at its ``at``-th call: a slice reads the clock before and after its
+    kernel call, so an even ``at`` is Ctrl-C seen as a slice returns and an odd ``at``
+    Ctrl-C just before the next slice starts, after ``(at - 1) / 2`` slices done."""
+
+    def __init__(self, at: int) -> None:
+        self.at, self.calls = at, 0
+
+    def perf_counter(self) -> float:
+        self.calls += 1
+        if self.calls == self.at:
+            raise KeyboardInterrupt
+        return time.perf_counter()

@@ -7,6 +7,7 @@ in the middle of the run.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
@@ -364,11 +365,18 @@ def test_samples_that_do_not_fit_are_refused_before_any_task(inproc, monkeypatch
     assert str(remote.value) == str(local.value)
 
 
-def test_tasks_larger_than_a_workers_memory_limit_are_refused():
+@contextlib.contextmanager
+def _small_cluster():
+    """A client of one in-process worker with a 50 MB memory limit."""
     cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                        memory_limit="50MB", dashboard_address=None,
                                        silence_logs=40)
-    with cluster, distributed.Client(cluster) as small:
+    with cluster, distributed.Client(cluster) as client:
+        yield client
+
+
+def test_tasks_larger_than_a_workers_memory_limit_are_refused():
+    with _small_cluster() as small:
         scene, _, L0 = _ensemble(64)
         with pytest.raises(ValueError, match=r"bodies_per_task = 64: a task keeps 200,001 "
                                              r"samples of 64 bodies \(0\.718 GB\)"):
@@ -530,10 +538,7 @@ def test_the_bodies_per_task_advised_are_those_that_fit_in_half_a_workers_limit(
     bodies fit in 25 MB and 23 do not. It advised 11: each body counted twice."""
     import re
 
-    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                       memory_limit="50MB", dashboard_address=None,
-                                       silence_logs=40)
-    with cluster, distributed.Client(cluster) as small:
+    with _small_cluster() as small:
         scene, _, L0 = _ensemble(64)
         with pytest.raises(ValueError, match=r"bodies_per_task = 64: .*give bodies_per_task "
                                              r"= (\d+) or less") as info:

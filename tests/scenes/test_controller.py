@@ -28,6 +28,7 @@ from numba import njit
 
 import liebody
 from liebody import quaternion as Q
+from support import stepper_states
 
 EPS = np.finfo(float).eps
 
@@ -277,18 +278,6 @@ CASES = [(name, m.name) for name, (scene, _, _) in SCENES.items() for m in liebo
          if m.supports(scene)]
 
 
-def _run(stepper, calls: int, n: int):
-    """The states (and times) of a stepper at the start and after each of ``calls``
-    calls ``step(n)``."""
-    qs, Ls, ts = [stepper.q], [stepper.L], [stepper.t]
-    for _ in range(calls):
-        stepper.step(n)
-        qs.append(stepper.q)
-        Ls.append(stepper.L)
-        ts.append(stepper.t)
-    return np.array(qs), np.array(Ls), np.array(ts)
-
-
 def _assert_same(method, got, ref, scale):
     """Bit for bit for a stepping method; to round-off for the exact flow, whose stepper
     composes one flow of ``n dt`` per call where integrate() evaluates each sample from
@@ -315,7 +304,7 @@ def test_stepper_equals_integrate(scene, method):
     for calls, n in ((4, 3), (6, 1)):
         ref = liebody.integrate(sc, dt=dt, steps=calls * n, save_every=n, method=method, **kw)
         s = liebody.Stepper(sc, dt=dt, method=method, **kw)
-        _assert_same(method, _run(s, calls, n), ref, scale)
+        _assert_same(method, stepper_states(s, calls, n), ref, scale)
         assert s.steps == calls * n
 
 
@@ -341,7 +330,7 @@ def test_a_stepper_set_to_a_state_equals_integrate_from_it(scene, method):
         s.u = new["controls"]
     assert s.t == 0.0 and s.steps == 6
     ref = liebody.integrate(sc, dt=dt, steps=12, save_every=4, method=method, **new)
-    _assert_same(method, _run(s, 3, 4), ref, float(np.linalg.norm(L1)))
+    _assert_same(method, stepper_states(s, 3, 4), ref, float(np.linalg.norm(L1)))
 
 
 def test_setting_L_replans_and_setting_q_does_not():
@@ -381,7 +370,7 @@ def test_setting_q_alone_continues_with_the_same_plan_and_clock():
     # the same base and ordering (the info's energy-error constant, a number computed
     # from L, differs in its last digits; the plan's stages do not depend on it)
     assert _choices(ref.info) == _choices(s.info)
-    np.testing.assert_array_equal(_run(s, 3, 10)[0], ref.q)
+    np.testing.assert_array_equal(stepper_states(s, 3, 10)[0], ref.q)
     assert s.t == (17 + 30) * 0.05
 
 
@@ -542,7 +531,7 @@ def test_ensemble_stepper_equals_one_body_steppers(method):
                             method=method, controls=shared)
     s.state = (q1, L1)  # integrate() renormalises q0 and plans for L0: so does this
     s.t = 0.0
-    got = _run(s, 2, 3)
+    got = stepper_states(s, 2, 3)
     np.testing.assert_array_equal(got[0], np.moveaxis(ref.q, 1, 0))
     np.testing.assert_array_equal(got[1], np.moveaxis(ref.L, 1, 0))
 

@@ -13,6 +13,7 @@ from numba import njit
 
 import liebody
 from liebody import quaternion as Q
+from support import InterruptingClock, stepper_states
 
 I_SAT = np.array([100.0, 120.0, 80.0])
 N_ORBIT = 2.0 * np.pi / 5400.0  # a 90-minute orbit
@@ -40,16 +41,6 @@ def _after_epoch(t, q, L):
     return out
 
 
-def _states(stepper, calls: int, n: int):
-    qs, Ls, ts = [stepper.q], [stepper.L], [stepper.t]
-    for _ in range(calls):
-        stepper.step(n)
-        qs.append(stepper.q)
-        Ls.append(stepper.L)
-        ts.append(stepper.t)
-    return np.array(qs), np.array(Ls), np.array(ts)
-
-
 # ------------------------------------------------------------------------- the clock
 
 
@@ -65,7 +56,7 @@ def test_a_stepper_started_at_t0_equals_integrate_from_t0(method):
                             method=method, t0=t0)
     s = liebody.Stepper(_satellite(), q0=Q0, L0=L0, dt=dt, method=method, t0=t0)
     assert s.t == t0
-    q, L, t = _states(s, 4, 3)
+    q, L, t = stepper_states(s, 4, 3)
     np.testing.assert_array_equal(t, ref.t)
     np.testing.assert_array_equal(q, ref.q)
     np.testing.assert_array_equal(L, ref.L)
@@ -84,7 +75,7 @@ def test_an_ensemble_stepper_started_at_t0_equals_integrate_from_t0():
           "t0": 777.25}
     ref = liebody.integrate(_satellite(bodies), steps=8, save_every=4, **kw)
     s = liebody.Stepper(_satellite(bodies), **kw)
-    q, L, t = _states(s, 2, 4)
+    q, L, t = stepper_states(s, 2, 4)
     np.testing.assert_array_equal(t, ref.t)
     np.testing.assert_array_equal(np.moveaxis(q, 1, 0), ref.q)
     np.testing.assert_array_equal(np.moveaxis(L, 1, 0), ref.L)
@@ -99,7 +90,7 @@ def test_a_torque_known_from_an_epoch_on_is_checked_at_t0():
     kw = {"q0": Q0, "L0": [0.3, -1.0, 0.6], "dt": 0.05, "method": "splitting2"}
     ref = liebody.integrate(scene, steps=20, save_every=5, t0=5.0, **kw)
     s = liebody.Stepper(scene, t0=5.0, **kw)
-    q, L, t = _states(s, 4, 5)
+    q, L, t = stepper_states(s, 4, 5)
     np.testing.assert_array_equal(t, ref.t)
     np.testing.assert_array_equal(q, ref.q)
     np.testing.assert_array_equal(L, ref.L)
@@ -260,23 +251,6 @@ def test_a_satellite_stepped_from_t0_follows_its_orbit_as_dop853_does():
 # ------------------------------------------------------------------------- Ctrl-C
 
 
-class _CtrlCAt:
-    """``time`` for the stepper module whose ``perf_counter`` raises KeyboardInterrupt at
-    its ``at``-th call. A slice reads the clock before and after its kernel call: an odd
-    ``at`` is Ctrl-C just before a slice starts, after ``(at - 1) / 2`` slices done."""
-
-    def __init__(self, at: int) -> None:
-        self.at, self.calls = at, 0
-
-    def perf_counter(self) -> float:
-        import time
-
-        self.calls += 1
-        if self.calls == self.at:
-            raise KeyboardInterrupt
-        return time.perf_counter()
-
-
 @pytest.mark.parametrize("method", ["splitting2", "rattle", "rk4"])
 @pytest.mark.parametrize("at", [3, 5])
 def test_ctrl_c_before_a_slice_keeps_the_slices_done(method, at, monkeypatch):
@@ -290,7 +264,7 @@ def test_ctrl_c_before_a_slice_keeps_the_slices_done(method, at, monkeypatch):
     kw = {"q0": Q0, "L0": L0, "dt": 0.5, "method": method, "t0": 100.0}
     s = liebody.Stepper(_satellite(), **kw)
     s.step(3)
-    monkeypatch.setattr(_stepper, "time", _CtrlCAt(at))
+    monkeypatch.setattr(_stepper, "time", InterruptingClock(at))
     with pytest.raises(liebody.IntegrationInterrupted) as info:
         s.step(100_000)
     monkeypatch.undo()
@@ -320,7 +294,7 @@ def test_a_wheel_stepper_started_at_t0_equals_integrate_from_t0():
           "controls": [0.02, -0.01, 0.03], "t0": 250.0, "method": "splitting2"}
     ref = liebody.integrate(craft, steps=400, save_every=100, **kw)
     s = liebody.Stepper(craft, **kw)
-    q, L, t = _states(s, 4, 100)
+    q, L, t = stepper_states(s, 4, 100)
     np.testing.assert_array_equal(t, ref.t)
     np.testing.assert_array_equal(q, ref.q)
     np.testing.assert_array_equal(L, ref.L)

@@ -18,7 +18,6 @@ import pickle
 import sys
 import textwrap
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -28,7 +27,7 @@ import liebody
 from liebody import _engine, _stepper
 from liebody import quaternion as Q
 from liebody._kernels import batch
-from support import interrupt_child
+from support import InterruptingClock, interrupt_child
 
 N_ENS = 300  # well above SIMD_MIN_BODIES, more than one block of 128 bodies
 assert batch.SIMD_MIN_BODIES <= 3 < N_ENS
@@ -241,21 +240,6 @@ def test_slices_grow_with_the_measured_rate():
 # ----------------------------------------------------------------------- 2/3. Ctrl-C
 
 
-class _InterruptingClock:
-    """``time`` for the stepper module whose ``perf_counter`` raises KeyboardInterrupt
-    at its ``at``-th call: Ctrl-C seen as a kernel slice returns (even ``at``) or just
-    before the next slice starts (odd ``at``)."""
-
-    def __init__(self, at: int) -> None:
-        self.at, self.calls = at, 0
-
-    def perf_counter(self) -> float:
-        self.calls += 1
-        if self.calls == self.at:
-            raise KeyboardInterrupt
-        return time.perf_counter()
-
-
 def _interrupt_cases():
     top = _top()
     return {
@@ -283,7 +267,7 @@ def test_ctrl_c_leaves_the_stepper_as_a_shorter_call_would(case, at, monkeypatch
     s = liebody.Stepper(sc, dt=dt, method=method, **kw, **extra)
     s.step(7)
     s.t = 0.25
-    monkeypatch.setattr(_stepper, "time", _InterruptingClock(at))
+    monkeypatch.setattr(_stepper, "time", InterruptingClock(at))
     with pytest.raises(liebody.IntegrationInterrupted) as info:
         s.step(n)
     monkeypatch.undo()
