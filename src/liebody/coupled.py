@@ -796,10 +796,9 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
 def _failure(run, status, body, t0, done, where, then, traj, step):
     """The error of a run stopped in step ``done`` (counted from ``t0``) with ``status``,
     ``body`` the first failing body; ``where`` (the step) and ``then`` (what is kept) end
-    the message. A torque that raised has
-    its own exception as the cause: it is called again with the inputs of the failing
-    kick (its time, and the ``q / |q|`` and ``L`` the driver passed, left in the work
-    arrays)."""
+    the message. A torque that raised has its own exception as the cause: it is called
+    again with the inputs of the failing kick (its time, and the ``q / |q|`` and ``L``
+    the driver passed, left in the work arrays)."""
     from liebody._kernels import stages as S
 
     name, dt = run.method.name, run.dt
