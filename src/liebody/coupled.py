@@ -836,7 +836,8 @@ def _check_energy(traj) -> None:
     """Warn when the total energy left 1 % of its scale (a symplectic method on a
     conservative system keeps it within a bounded error of the step's order); not for a
     potential that depends on the time (its value at the last orientations differs at
-    the first, middle or last time), which does not keep the energy. A potential that
+    the first and last times and at one in between, 0.382 of the way, which a period
+    seldom divides), which does not keep the energy. A potential that
     raises here is warned about, the run kept. The warnings point at the caller of
     :func:`liebody.integrate`."""
     if traj.scene.potential_function is None or len(traj.t) < 2:
@@ -847,7 +848,7 @@ def _check_energy(traj) -> None:
     try:
         V0 = traj.scene.potential(q[:, 0], t0)
         V1 = traj.scene.potential(q[:, -1], t1)
-        moving = [traj.scene.potential(q[:, -1], t) for t in (t0, 0.5 * (t0 + t1))]
+        moving = [traj.scene.potential(q[:, -1], t) for t in (t0, t0 + 0.382 * (t1 - t0))]
     except Exception as exc:
         warnings.warn(f"{name}: the energy of the coupled system was not checked: the "
                       f"potential raised {type(exc).__name__}: {exc}", InvariantWarning,
