@@ -355,7 +355,7 @@ def test_every_body_of_a_controlled_ensemble_follows_its_own_row(torque, orienta
     groups = traj.info.get("groups", [traj.info])
     assert {g["simd"] for g in groups} == {bool(simd)}  # (the path the case is for)
     for i in range(n):
-        py = torque.py_func
+        py = getattr(torque, "py_func", torque)  # (the function itself uncompiled)
         q1, L1 = _dop853(moments[i], q0[i], L0[i], 0.3, 2.3,
                          lambda t, q, L, i=i, py=py: py(t, q, L, params[i], u[i]))
         np.testing.assert_allclose(traj.q[i, -1], q1, rtol=0, atol=1e-10)
