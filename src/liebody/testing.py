@@ -750,27 +750,38 @@ def assert_order(method, problem: Problem | str, expected: int, *, tol: float = 
 # energy drift
 # ----------------------------------------------------------------------------------------
 
-#: the verdicts, in the order of the terms c0, c1 tau, c2 tau^2 of the structure function
+#: the verdicts, in the order of the terms c0, c1 w, c2 w^2 of the windowed variance
 KINDS = ("bounded", "random walk", "drift")
 #: the verdict of a run too short to tell (see :data:`MIN_CYCLES`)
 UNDETERMINED = "undetermined"
 #: a drift needs a linear trend this many standard errors away from zero
 DRIFT_SIGNIFICANCE = 4.0
-#: a linear trend this many standard errors away from zero is a drift whatever the
-#: structure function says: an oscillation faster than the 20 blocks of the trend's fit
-#: (but slower than the 256 blocks of the structure function) hides a drift from the
-#: structure function, not from the fit (measured: a bounded oscillation reaches 3 or so)
+#: a linear trend this many standard errors away from zero is a drift under a bounded
+#: error (or one the windowed variance calls a random walk while the error about the
+#: trend stops growing): a drift smaller than the oscillation does not show in the
+#: windowed variance, but the 20 block means of the trend's fit average it out
 DRIFT_OVERRULE = 10.0
-#: "random walk" needs the block means to wander (their structure function at T/3) by
-#: more than this times the error's spread within a block: measured, a random walk's
-#: ratio is 11 or more, a bounded oscillation's 0.15 or less
-WALK_WANDER = 1.0
-#: block means the growth exponent is measured on
+#: a drift's change over the run must also exceed this many times the largest change
+#: (slope times run) that a bounded oscillation of the error's size and number of cycles
+#: makes a least-squares line show: a sinusoid's own slope, which is not a drift
+DRIFT_LEAKAGE = 2.0
+#: bounded: the windowed variance grows by at most this factor over its top two octaves
+#: (windows of T/8 to T/2; a random walk's factor is 4 in expectation, 1.4 or more in
+#: 99 % of walks, measured; a sinusoid's 1.05 or less from 8 periods on)
+FLAT = 1.25
+#: bounded, for an oscillation of few (3 to 8) periods: the windowed variance grows by at
+#: most this factor over its top octave (T/4 to T/2) after a smooth rise below it ...
+FLAT_TOP = 1.1
+#: ... by at least this factor over the two octaves below (T/32 to T/8: like w^2, a
+#: smooth error's growth; a random walk's is like w, a factor 4)
+SMOOTH = 8.0
+#: the cycles are counted on the error smoothed over T / BLOCKS
 BLOCKS = 256
 #: a verdict needs the error's fluctuation about its trend to complete at least this many
-#: cycles over the run (its rms frequency, Rice's formula, times the run's length):
-#: over fewer, a slow oscillation cannot be told from a drift or a random walk. A random
-#: walk's count is 4.4 or more with 256 blocks (measured, 400 walks; 2.7 with 64)
+#: cycles over the run (see ``EnergyDrift.cycles``): over fewer, a slow oscillation
+#: cannot be told from a drift or a random walk. A random walk's count is 3.5 or more
+#: from 2,000 samples on (measured, 400 walks each of 2,000 and 20,000 samples; 2.6 with
+#: 64 samples)
 MIN_CYCLES = 3.0
 
 
@@ -788,42 +799,57 @@ class EnergyDrift:
         tell: its error's fluctuation about the trend completes fewer than
         :data:`MIN_CYCLES` cycles, see ``cycles``).
     exponent
-        The growth exponent ``H`` of ``S(tau) ~ tau^H`` at the largest lag ``T/3``: 0 for
-        bounded, 1/2 for a random walk, 1 for a drift. ``S(tau)`` is the structure
-        function ``rms(e(s + tau) - e(s))`` (averaged over all start times ``s``) of 256
-        block means of ``e``, so that an oscillation much faster than ``T/256``
-        averages out; ``S^2`` is fitted (non-negative least squares, relative
-        residuals) by ``c0 + c1 tau + c2 tau^2``: a bounded part, a random walk and a
-        drift. The verdict is the term that dominates at ``tau = T/3``; a drift also
-        needs a significant linear trend (``|rate| > 4 rate_stderr``), otherwise the
-        growth is a slow oscillation and the verdict the larger of the other two. A
-        random walk also needs the block means to wander (``S(T/3)``) by more than the
-        error spreads within a block (a random walk's wander by ten times more or so);
-        block means that wander less are the residue of a bounded oscillation that
-        does not quite average out in a block, and the verdict is bounded. A bounded
-        verdict with a linear trend of more than 10 standard errors
-        (``|rate| > 10 rate_stderr``) is a drift: an oscillation slower than the 256
-        blocks but faster than the 20 of the trend's fit hides a drift from ``S``.
+        The growth exponent ``H`` of the error's rms within a window of length ``w``,
+        ``sqrt(V(w)) ~ w^H``, over the top two octaves (``w`` from ``T/8`` to ``T/2``):
+        0 for bounded, 1/2 for a random walk, 1 for a drift. ``V(w)`` is the variance
+        of ``e`` within a window of length ``w``, averaged over all the windows (every
+        start): a bounded error's stops growing once ``w`` exceeds its periods (a
+        sinusoid's is ``A^2/2 (1 - sinc^2(w / P))``, without aliasing: no block means),
+        a random walk's grows like ``w``, a drift's like ``w^2``. The error is bounded
+        when ``V`` stops growing: by at most 25 % over the top two octaves (a random
+        walk's grows 4-fold in expectation, 1.4-fold or more in 99 % of walks), or, for
+        an oscillation of few (3 to 8) periods, by at most 10 % over the top octave
+        after a smooth rise below it (8-fold or more from ``T/32`` to ``T/8``, like
+        ``w^2``; a random walk's rises like ``w``). Otherwise ``V`` is fitted
+        (non-negative least squares, relative residuals, windows from ``T/2048`` to
+        ``T/2`` by half octaves) by ``c0 + c1 w + c2 w^2``: a bounded part, a random
+        walk and a drift, and the verdict is the term that dominates at ``T/2``.
+        A drift needs a real linear trend, one that is significant
+        (``|rate| > 4 rate_stderr``) and larger than a bounded oscillation's own
+        least-squares slope: the change over the run ``|rate| T`` must exceed twice
+        ``(12 / (2 pi N) + 24 / (2 pi N)^2) A``, what a sinusoid of the amplitude ``A``
+        of the error about its trend (``sqrt(2)`` times its rms) and ``N`` periods
+        (Rice's count on the raw samples, or its swings if fewer) can show at most.
+        A bounded verdict with a real trend of more than 10 standard errors is a drift
+        (a drift smaller than the oscillation does not show in ``V``, but the 20 block
+        means of the trend's fit average the oscillation out); so is a random walk's
+        when the error about its trend stops growing.
     confidence
-        The share of ``S^2(T/3)`` that the winning term explains (between 0 and 1;
-        at least 1/3 unless a drift was set aside for want of a significant trend):
-        near 1 a clear verdict, near 1/2 a mixture (e.g. a slow drift under a large
-        bounded oscillation). For a random walk overruled by the wander test:
-        ``1 - wander``. For a bounded verdict overruled by the trend: the share of the
-        20 block means' variance that the linear trend explains. 0 for
-        ``"undetermined"``.
+        The share of ``V(T/2)`` the verdict explains (between 0 and 1): for a bounded
+        error, the share already reached at the start of its flat part (``V(T/8)`` or
+        ``V(T/4)`` over ``V(T/2)``); for a fitted verdict, the share of the winning term
+        (at least 1/3 unless a drift was set aside for want of a real trend): near 1 a
+        clear verdict, near 1/2 a mixture (e.g. a slow drift under a large bounded
+        oscillation). For a drift found by its trend alone: the share of the 20 block
+        means' variance that the linear trend explains. 0 for ``"undetermined"``.
     rate, rate_stderr
         Least-squares slope of 20 block means of ``e`` against their times (relative
-        energy per unit time) and its standard error.
+        energy per unit time) and its standard error (from their scatter about the
+        line). A bounded oscillation has a slope of its own over a finite run (see
+        ``exponent``): a significant rate alone is not a drift.
     max_error
         ``max |e|``.
     cycles
         How many cycles the error's fluctuation about its linear trend completes over
-        the run: ``T`` times its rms frequency (Rice's formula on the detrended 256 block
-        means: ``std(increments) / (2 pi std)`` per block). A sinusoid's count is its
-        number of periods; a random walk's 4.4 or more (256 blocks). Fewer than
-        :data:`MIN_CYCLES` (3): ``"undetermined"``. ``inf`` when the error has no
-        fluctuation about its trend.
+        the run: the larger of two counts. Rice's rms frequency times the run's length,
+        on the error smoothed by three passes of a moving average over ``T/256`` (not
+        decimated: a fast oscillation is damped, never aliased into a slow one); and
+        half the swings of the raw error about its trend between ``-std/2`` and
+        ``+std/2`` (a fast oscillation's periods, which the smoothing removes; noise
+        far smaller than the fluctuation does not swing). A sinusoid's count is its
+        number of periods; a random walk's 3.5 or more (from 2,000 samples on). Fewer
+        than :data:`MIN_CYCLES` (3): ``"undetermined"``. ``inf`` when the error has no
+        fluctuation about its trend above round-off.
     """
 
     kind: str
@@ -859,16 +885,77 @@ def _block_fit(t: np.ndarray, e: np.ndarray, blocks: int) -> tuple[float, float,
     return float(slope), se, max(0.0, share)
 
 
-def _cycles(times: np.ndarray, means: np.ndarray, resolution: float) -> float:
-    """Cycles over the run of the block means' fluctuation about their linear trend
-    (Rice's rms frequency times the run's length); ``inf`` when that fluctuation is not
-    above ``resolution`` (the round-off of the energies)."""
-    m = means.size
-    r = means - np.polyval(np.polyfit(times, means, 1), times)
+def _detrended(x: np.ndarray) -> np.ndarray:
+    """``x`` less its least-squares line against the sample index."""
+    i = np.arange(x.size, dtype=float)
+    return x - np.polyval(np.polyfit(i, x, 1), i)
+
+
+def _rice_cycles(r: np.ndarray, samples: int, resolution: float) -> float:
+    """Cycles of ``r`` (detrended, one value a sample) over ``samples`` samples: Rice's
+    rms frequency ``std(increments) / (2 pi std)``; ``inf`` when ``r`` does not exceed
+    ``resolution`` (the round-off of the energies: nothing oscillates)."""
     spread = float(r.std())
     if not spread > resolution:
-        return math.inf  # a pure trend (to round-off): nothing oscillates
-    return m * float(np.diff(r).std()) / (2.0 * math.pi * spread)
+        return math.inf
+    return samples * float(np.diff(r).std()) / (2.0 * math.pi * spread)
+
+
+def _swings(r: np.ndarray, resolution: float) -> float:
+    """Cycles of ``r`` (detrended) counted as its swings from below ``-std/2`` to above
+    ``std/2`` and back, halved: an oscillation's periods, whatever its speed, not
+    counting noise far smaller than ``r``; ``inf`` when ``r`` does not exceed
+    ``resolution``."""
+    spread = float(r.std())
+    if not spread > resolution:
+        return math.inf
+    side = np.sign(r) * (np.abs(r) > 0.5 * spread)
+    side = side[side != 0]
+    return 0.5 * float(np.count_nonzero(np.diff(side)))
+
+
+def _cycles(e: np.ndarray, resid: np.ndarray, resolution: float) -> float:
+    """Cycles over the run of the error's fluctuation about its trend: the larger of
+    Rice's count on ``e`` smoothed by three passes of a moving average of
+    ``n / BLOCKS`` samples (not decimated, so that a fast oscillation is damped, not
+    aliased into a slow one) and the swings of the raw residual ``resid`` (a fast
+    oscillation, which the smoothing removes); ``inf`` when ``resid`` does not exceed
+    the round-off ``resolution``."""
+    n = e.size
+    b = max(1, n // BLOCKS)
+    s = e
+    for _ in range(3):
+        c = np.concatenate(([0.0], np.cumsum(s)))
+        s = (c[b:] - c[:-b]) / b
+    smooth = _rice_cycles(_detrended(s), n - 1, resolution)  # inf: nothing slow left
+    swings = _swings(resid, resolution)
+    return swings if math.isinf(smooth) else max(smooth, swings)
+
+
+def _window_variance(e: np.ndarray, widths) -> np.ndarray:
+    """The variance of ``e`` within a window of ``m`` samples, averaged over all the
+    windows (every start), for each ``m`` in ``widths``."""
+    x = e - e.mean()
+    scale = float(np.abs(x).max()) or 1.0
+    x = x / scale
+    c1 = np.concatenate(([0.0], np.cumsum(x)))
+    c2 = np.concatenate(([0.0], np.cumsum(x * x)))
+    out = np.empty(len(widths))
+    for j, m in enumerate(widths):
+        mean = (c1[m:] - c1[:-m]) / m
+        out[j] = max(float(np.mean((c2[m:] - c2[:-m]) / m - mean * mean)), 0.0)
+    return out * scale * scale
+
+
+def _stops_growing(V: np.ndarray) -> tuple[bool, float]:
+    """Whether a windowed variance ``V[k]`` (windows of ``W / 2^(k/2)``) stops growing
+    at the top: flat over two octaves, or over one after a smooth rise (an oscillation
+    of few periods); and the share of ``V[0]`` reached at the start of the flat part."""
+    if V[0] <= FLAT * V[4]:
+        return True, min(1.0, float(V[4] / V[0]))
+    if V.size > 8 and V[0] <= FLAT_TOP * V[2] and V[4] >= SMOOTH * V[8]:
+        return True, min(1.0, float(V[2] / V[0]))
+    return False, 0.0
 
 
 def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> EnergyDrift:
@@ -891,8 +978,11 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
         rate. Needs at least 64 samples (``ValueError`` for fewer). A run over which
         the error's fluctuation about its trend completes fewer than 3 cycles is
         ``"undetermined"`` (over less than its period a slow oscillation cannot be told
-        from a drift); for a clear verdict give it a horizon of a thousand periods of
-        the error's oscillation or more (the block means must average it out).
+        from a drift). A bounded oscillation is bounded from 3 periods on; a drift
+        under it is found once the drift exceeds what the oscillation's own
+        least-squares slope can show (see :class:`EnergyDrift`): a thousand periods
+        of the error's oscillation or more find drifts of a hundredth of its
+        amplitude over the run.
     """
     if traj is not None:
         if t is not None or energy is not None:
@@ -923,57 +1013,59 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
     norm = abs(E[0]) if relative and E[0] != 0.0 else 1.0
     e = e / norm
     n = t.size
+    span = float(t[-1] - t[0])
     max_err = float(np.abs(e).max())
+    resolution = 64.0 * np.finfo(float).eps * float(np.abs(E).max()) / norm
     # rate, its standard error and the share of variance it explains: 20 block means
     rate, rate_se, trend_share = _block_fit(t - t[0], e, 20)
-    # growth exponent: structure function of the block means (blocks average the
-    # oscillation of a bounded error out; a drift and a random walk survive them)
-    m = BLOCKS if n >= 2 * BLOCKS else n
-    means = np.array([b.mean() for b in np.array_split(e, m)])
-    times = np.array([b.mean() for b in np.array_split(t - t[0], m)])
-    cycles = _cycles(times, means, 64.0 * np.finfo(float).eps * float(np.abs(E).max()) / norm)
+    resid = _detrended(e)
+    cycles = _cycles(e, resid, resolution)
+    # the change over the run a least-squares line shows for a bounded oscillation of
+    # the error's size about its trend, A sin(2 pi N t / T + phi): at most
+    # (12 / (2 pi N) + 24 / (2 pi N)^2) A; N the fewer of Rice's count and the swings
+    periods = max(0.5, min(_rice_cycles(resid, n - 1, resolution), _swings(resid, resolution)))
+    leak = (math.sqrt(2.0) * float(resid.std())
+            * (12.0 / (2.0 * math.pi * periods) + 24.0 / (2.0 * math.pi * periods) ** 2))
+    trend_real = abs(rate) * span > DRIFT_LEAKAGE * leak
 
     def verdict(kind: str, exponent: float, confidence: float) -> EnergyDrift:
         if cycles < MIN_CYCLES:  # too short to tell, whatever the fit says
             kind, confidence = UNDETERMINED, 0.0
         return EnergyDrift(kind, exponent, confidence, rate, rate_se, max_err, cycles)
 
-    lags = np.unique(np.geomspace(1, max(2, m // 3), 12).astype(int))
-    amp = np.array([math.sqrt(float(np.mean((means[k:] - means[:-k]) ** 2))) for k in lags])
-    if max_err == 0.0 or np.all(amp == 0.0):
+    # windowed variance V(w), windows of W = n/2 samples down to T/2^11 by half octaves:
+    # a bounded error's stops growing (a sinusoid's: A^2/2 (1 - sinc^2(w / P))), a
+    # random walk's grows like w, a drift's like w^2
+    W = n // 2
+    half_octaves = 2 * min(10, int(math.log2(W / 2)))
+    widths = [max(1, round(W / 2.0 ** (k / 2))) for k in range(half_octaves + 1)]
+    V = _window_variance(e, widths)
+    if max_err == 0.0 or V[0] == 0.0:
         return EnergyDrift("bounded", 0.0, 1.0, rate, rate_se, max_err, cycles)
-    # S(tau)^2 = c0 + c1 tau + c2 tau^2, c >= 0: a bounded part, a random walk, a drift;
-    # the verdict is the part that dominates at the largest lag
-    from scipy.optimize import nnls
+    exponent = (min(1.0, max(0.0, 0.25 * math.log2(V[0] / V[4]))) if V[4] > 0 else 1.0)
+    bounded, share = _stops_growing(V)
+    if bounded:
+        k, confidence = 0, share
+    else:
+        # V(w) = c0 + c1 w + c2 w^2, c >= 0 (relative residuals): a bounded part, a
+        # random walk and a drift; the verdict is the part that dominates at w = W
+        from scipy.optimize import nnls
 
-    x = lags / lags[-1]
-    ok = amp > 0
-    A = np.stack([np.ones_like(x), x, x * x], axis=1)[ok] / (amp[ok, None] ** 2)
-    c, _ = nnls(A, np.ones(int(ok.sum())))
-    parts = c  # at the largest lag x = 1
-    total = float(parts.sum())
-    if total <= 0.0:
-        return verdict("bounded", 0.0, 1.0)
-    exponent = float((parts[1] + 2.0 * parts[2]) / (2.0 * total))
-    k = int(np.argmax(parts))
-    if k == 2 and not abs(rate) > DRIFT_SIGNIFICANCE * rate_se:
-        k = int(np.argmax(parts[:2]))  # no significant linear trend: a slow oscillation
-        total = float(parts[:2].sum()) or 1.0
-    confidence = float(parts[k] / total)
-    if k == 1:
-        # the block means of a bounded oscillation that does not quite average out in a
-        # block (its period beating with the block length) can wander like a random
-        # walk over short lags; but they wander far less than the error spreads within
-        # a block, while a random walk's wander by far more (sqrt(T/3) against
-        # sqrt(T/256)): then the error is bounded
-        spread = float(np.median([b.std() for b in np.array_split(e, m)]))
-        wander = float(amp[-1]) / spread if spread > 0 else math.inf
-        if wander < WALK_WANDER:
-            k, confidence = 0, 1.0 - wander / WALK_WANDER
-    if k == 0 and abs(rate) > DRIFT_OVERRULE * rate_se:
-        # an oscillation slower than the 256 blocks hides a drift from S, but the 20
-        # block means of the trend's fit average it out: a trend this far above their
-        # scatter is a drift
+        ok = V > 0
+        x = np.asarray(widths, dtype=float) / widths[0]
+        A = np.stack([np.ones_like(x), x, x * x], axis=1)[ok] / V[ok, None]
+        parts, _ = nnls(A, np.ones(int(ok.sum())))
+        k = int(np.argmax(parts))
+        if k == 2 and not (abs(rate) > DRIFT_SIGNIFICANCE * rate_se and trend_real):
+            k = int(np.argmax(parts[:2]))  # no real linear trend: a slow oscillation
+            parts = parts[:2]
+        confidence = float(parts[k] / (float(parts.sum()) or 1.0))
+    # a drift under a larger oscillation does not show in V(w), but the 20 block means
+    # of the trend's fit average the oscillation out. A bounded verdict with such a
+    # trend is a drift; so is a random walk's, when the error about the trend stops
+    # growing (a random walk about its own trend does not)
+    if (k != 2 and abs(rate) > DRIFT_OVERRULE * rate_se and trend_real
+            and (k == 0 or _stops_growing(_window_variance(resid, widths))[0])):
         k, confidence = 2, trend_share
     return verdict(KINDS[k], exponent, confidence)
 
