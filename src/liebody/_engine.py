@@ -108,17 +108,33 @@ def resolve_threads(threads) -> int:
     return int(threads)
 
 
+def failed_step_times(t0: float, step: int, dt: float) -> tuple[float, float]:
+    """The start and the end of a run's failing step, after ``step`` good steps from
+    ``t0``: ``IntegrationError.t`` (the time of the last good state) and
+    ``Trajectory.failed_at``, on the grid of the sample times (``t0 + k dt``), as every
+    run reports them (one body, ensembles, the Stepper)."""
+    return t0 + step * dt, t0 + (step + 1) * dt
+
+
+def failed_step_words(step: int, t: float, failed_at: float, counted: str = "") -> str:
+    """Where a run failed, in the words of its fields: the step from ``t`` (the error's
+    ``.t``) to ``failed_at`` (``Trajectory.failed_at``), after ``step`` good steps (the
+    error's ``.step``; ``counted``, e.g. ``" of this call"``, says what they count)."""
+    return (f"in the step from t = {t:.10g} to t = {failed_at:.10g} (after {step:,} "
+            f"steps{counted})")
+
+
 def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> str | None:
     """The warning of an ensemble some of whose bodies failed (``None`` if none did): how
-    many, why, and one body of each kind with its time."""
+    many, why, and one body of each kind with its ``failed_at``."""
     bad = [i for i, s in enumerate(status) if str(s).startswith("failed")]
     if not bad:
         return None
     kinds: dict[str, list[int]] = {}
     for i in bad:
         kinds.setdefault(str(status[i])[8:] or "failed", []).append(i)
-    words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.6g})"
-                      for k, v in kinds.items())
+    words = "; ".join(f"{len(v)} {k} (e.g. body {v[0]} at t = {failed_at[v[0]]:.10g}, the "
+                      f"end of its failing step)" for k, v in kinds.items())
     return (f"{method}: {len(bad)} of {len(status)} bodies failed: {words}; their samples "
             f"stop there (NaN after; Trajectory.failed_at and Trajectory.status per body), "
             f"the others finished")
@@ -127,11 +143,12 @@ def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> s
 def failure_summary(method: str, status, failed_at, dt: float, model=None, states=None,
                     u=None) -> str | None:
     """:func:`failure_message`, and for a torque that failed the first such body's own
-    words (the exception's type and message, or its non-finite values), from the records:
-    ``states`` ``(N, 7)`` the bodies' last good states, ``u`` the controls (``(k,)`` or
-    ``(N, k)``), ``failed_at`` the end of each failing step."""
+    words (the exception's type and message, its non-finite values, or for a scene's own
+    torque model a time outside its sampled orbits), from the records: ``states``
+    ``(N, 7)`` the bodies' last good states, ``u`` the controls (``(k,)`` or ``(N, k)``),
+    ``failed_at`` the end of each failing step."""
     message = failure_message(method, status, failed_at)
-    if not message or model is None or model.function is None or states is None:
+    if not message or model is None or states is None:
         return message
     bad = [i for i, s in enumerate(status) if str(s) == "failed: " + REASONS[S.STATUS_TORQUE]]
     if not bad:

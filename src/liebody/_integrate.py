@@ -42,6 +42,8 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     diagnostic_reference,
     diagnostics_dict,
     entry_point,
+    failed_step_times,
+    failed_step_words,
     first_slice,
     input_sizes,
     interrupt_after_call,
@@ -913,7 +915,8 @@ class _Run:
                 bad = ~(np.isfinite(q[sl]).all(axis=1) & np.isfinite(m[sl]).all(axis=1))
                 if bad.any():
                     k = done + int(np.argmax(bad))
-                    return self._failed_nonfinite(k, k - 1, self.t0 + t[k])
+                    return self._failed_nonfinite(k, self._step_of_sample(k - 1),
+                                                  self.t0 + t[k - 1], self.t0 + t[k])
                 done += n
         except KeyboardInterrupt:
             self._interrupted(done, self._step_of_sample(done - 1))
@@ -995,12 +998,13 @@ class _Run:
             f"(t = {self.t0 + step * self.dt:.6g}); the {n_keep:,} samples computed so far are "
             f"on this exception's .trajectory", traj, step, self.t0 + step * self.dt) from None
 
-    def _failed_nonfinite(self, n_keep: int, step: int, t_fail: float) -> Trajectory:
+    def _failed_nonfinite(self, n_keep: int, step: int, t_start: float, t_fail: float
+                          ) -> Trajectory:
         traj = self._partial(n_keep, "failed", failed_at=t_fail)
         warnings.warn(
-            f"{self.method.name}: the state became non-finite at step {step + 1:,} "
-            f"(t = {t_fail:.6g}); returning the {n_keep:,} samples before it "
-            f"(Trajectory.failed_at is set)", RuntimeWarning, stacklevel=4)
+            f"{self.method.name}: the state became non-finite "
+            f"{failed_step_words(step, t_start, t_fail)}; returning the {n_keep:,} samples "
+            f"before it (Trajectory.failed_at is set)", RuntimeWarning, stacklevel=4)
         return traj
 
     def _overflowed(self) -> Trajectory:
@@ -1024,9 +1028,9 @@ class _Run:
     def _failed(self, status: int, done: int, saved: int, state: np.ndarray) -> Trajectory:
         name, dt = self.method.name, self.dt
         n_keep = 1 + saved
-        t0 = self.t0 + done * dt  # the failing step starts here
-        where = (f"at step {done + 1:,} (t = {t0:.6g}); the {n_keep:,} samples before it are "
-                 f"on this exception's .trajectory")
+        t0, t_fail = failed_step_times(self.t0, done, dt)  # the failing step's start, end
+        where = (f"{failed_step_words(done, t0, t_fail)}; the {n_keep:,} samples before it "
+                 f"are on this exception's .trajectory")
         if status == S.STATUS_NONFINITE:
             # a user torque that fails inside a one-stage method (the baselines) shows as a
             # non-finite state: ask the torque at the step's clock values before blaming
@@ -1034,12 +1038,12 @@ class _Run:
             if self.model.function is not None and not _torque_is_finite(
                     self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
                 raise_torque_error(self.model, name, where, state, t0, dt,
-                                   self._partial(n_keep, "failed", failed_at=t0 + dt), done,
+                                   self._partial(n_keep, "failed", failed_at=t_fail), done,
                                    self.u)
-            return self._failed_nonfinite(n_keep, done, t0 + dt)
+            return self._failed_nonfinite(n_keep, done, t0, t_fail)
         # failed_at is the time the failing step was to reach, as for a blow-up and for
         # the bodies of an ensemble; the exception's .t is where that step starts
-        traj = self._partial(n_keep, "failed", failed_at=t0 + dt)
+        traj = self._partial(n_keep, "failed", failed_at=t_fail)
         if status == S.STATUS_TORQUE:
             raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u)
         if status == S.STATUS_NO_CONVERGENCE:

@@ -21,9 +21,13 @@ class IntegrationError(RuntimeError):
     trajectory : liebody.Trajectory or None
         The samples saved before the failing step (the initial state at least).
     step : int or None
-        The step that failed (0-based: ``step`` steps were completed).
+        The steps completed before the failing one (its index counted from 0); for a
+        :class:`~liebody.Stepper`, the steps of the failing call that succeeded.
     t : float or None
-        The time at the start of the failing step.
+        The time of the last good state, where the failing step starts: ``t0 + step dt``
+        (a Stepper's clock after the steps that succeeded). The step was to reach
+        ``t + dt``, the trajectory's ``failed_at``. The message names the same three
+        numbers: "in the step from t = <t> to t = <t + dt> (after <step> steps)".
     """
 
     def __init__(self, message: str, trajectory=None, step: int | None = None,

@@ -44,9 +44,11 @@ class Trajectory:
     failed_at : float or None
         The time the failing step was to reach (its end): the first step that produced
         a non-finite state (baselines that blow up), whose implicit equation had no
-        solution, or whose torque failed; the samples stop before it. ``None`` for a
-        complete run. For an ensemble, an array ``(N,)``: that time per body, NaN for
-        bodies that completed.
+        solution, or whose torque failed; the samples stop before it. After ``k`` good
+        steps from ``t0`` it is ``t0 + (k + 1) dt``, the time its sample would have had
+        (the error a failure raises carries ``step = k`` and ``t = t0 + k dt``, the
+        step's start). ``None`` for a complete run. For an ensemble, an array ``(N,)``:
+        that time per body, NaN for bodies that completed.
     info : dict
         Choices made at set-up (axis ordering, base of a composition, ...). For the
         axis splittings, ``energy_error_constant`` is the range over the orbit of the

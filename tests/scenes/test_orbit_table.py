@@ -297,10 +297,10 @@ def test_a_run_that_leaves_the_table_stops_there_naming_the_time():
     assert scene.time_span == (0.0, 10.0)
     assert liebody.GravityGradient(liebody.RigidBody(MOMENTS), [(0.5, CIRCLE)]).time_span == (
         -math.inf, math.inf)
-    # the step from t = 10 reaches past the table (the message names the step's start)
+    # the step from t = 10 reaches past the table (the message names the step's times)
     with pytest.raises(TorqueError, match=r"the time t = 10\.0\d* is outside the times "
-                       r"\[0, 10\] that the scene's sampled orbits .* at step 501 \(t = 10\)"
-                       ) as info:
+                       r"\[0, 10\] that the scene's sampled orbits .* in the step from "
+                       r"t = 10 to t = 10\.02 \(after 500 steps\)") as info:
         liebody.integrate(scene, L0=L0, dt=0.02, steps=1000, save_every=50,
                           method="splitting2")
     traj = info.value.trajectory
