@@ -888,7 +888,9 @@ def _block_fit(t: np.ndarray, e: np.ndarray, blocks: int) -> tuple[float, float,
 def _detrended(x: np.ndarray) -> np.ndarray:
     """``x`` less its least-squares line against the sample index."""
     i = np.arange(x.size, dtype=float)
-    return x - np.polyval(np.polyfit(i, x, 1), i)
+    i -= i.mean()
+    r = x - x.mean()
+    return r - (float(np.dot(i, r)) / float(np.dot(i, i))) * i
 
 
 def _rice_cycles(r: np.ndarray, samples: int, resolution: float) -> float:
@@ -938,12 +940,17 @@ def _window_variance(e: np.ndarray, widths) -> np.ndarray:
     x = e - e.mean()
     scale = float(np.abs(x).max()) or 1.0
     x = x / scale
+    n = x.size
     c1 = np.concatenate(([0.0], np.cumsum(x)))
+    # prefix sums of the windows' sums of squares: sum_s (c2[s + m] - c2[s]) at once
     c2 = np.concatenate(([0.0], np.cumsum(x * x)))
+    p2 = np.concatenate(([0.0], np.cumsum(c2)))
     out = np.empty(len(widths))
     for j, m in enumerate(widths):
-        mean = (c1[m:] - c1[:-m]) / m
-        out[j] = max(float(np.mean((c2[m:] - c2[:-m]) / m - mean * mean)), 0.0)
+        k = n - m + 1  # windows
+        squares = (p2[n + 1] - p2[m]) - p2[k]
+        sums = c1[m:] - c1[:-m]
+        out[j] = max((squares / m - float(np.dot(sums, sums)) / (m * m)) / k, 0.0)
     return out * scale * scale
 
 
