@@ -26,6 +26,24 @@ class Failure(NamedTuple):
 _DEFAULTS: dict = {}
 
 
+#: a unit quaternion standing in for a failed sample's orientation
+_IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def _takes_time(potential) -> bool:
+    """Whether a scene's ``potential`` takes the time as a second argument
+    (``potential(q, t)``, as the time-dependent scenes define it; ``potential(q)`` for
+    the others and for a user's subclass that says nothing of time)."""
+    import inspect
+
+    try:
+        params = list(inspect.signature(potential).parameters.values())
+    except (TypeError, ValueError):
+        return False
+    return len(params) >= 2 and params[1].kind in (
+        inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Saved samples of a run. Memory is exactly the saved samples.
@@ -279,8 +297,23 @@ class Trajectory:
 
     @property
     def potential_energy(self) -> np.ndarray:
-        """The scene's potential at the samples (zero for a free body)."""
-        return self._on_finite(self.scene.potential, None, self.orientation)
+        """The scene's potential at the samples (zero for a free body): at their orientations
+        and, for a scene whose ``potential(q, t)`` takes the time (a
+        :class:`~liebody.GravityGradient`, a :class:`~liebody.TorqueBody`), at their times.
+        An ensemble's failed samples are NaN; its bodies keep their axis (per-body
+        parameters read each body's row)."""
+        q = self.orientation
+        mask = self._finite()
+        whole = bool(mask.all())
+        if not whole:  # (a unit placeholder where a body failed: its V is set to NaN)
+            q = np.where(mask[..., None], q, _IDENTITY)
+        potential = self.scene.potential
+        if _takes_time(potential):
+            V = potential(q, np.broadcast_to(self.t, q.shape[:-1]))
+        else:
+            V = potential(q)
+        V = np.asarray(V, dtype=float)
+        return V if whole else np.where(mask, V, np.nan)
 
     @property
     def energy(self) -> np.ndarray:

@@ -431,3 +431,50 @@ def test_a_torque_that_writes_over_its_state_and_controls_changes_nothing(n, sim
     for a, b in ((runs[0], runs[2]), (runs[1], runs[3])):
         np.testing.assert_array_equal(a.q, b.q)
         np.testing.assert_array_equal(a.L, b.L)
+
+
+@njit
+def _pulsing_gravity_fails(t, q, L, p):
+    """:func:`_pulsing_gravity`, NaN for the body whose ``p[4]`` is set once ``t > 1.5``."""
+    if p[4] > 0.0 and t > 1.5:
+        return np.array([np.nan, 0.0, 0.0])
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    g = np.array([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z])
+    return (1.0 + p[3] * np.sin(t)) * np.cross(g, p[:3])
+
+
+def test_the_trajectorys_potential_energy_is_at_the_samples_times():
+    """Trajectory.potential_energy and .energy evaluate a time-dependent potential at each
+    sample's time (they called potential(q), i.e. at t = 0), for one body and for an
+    ensemble of per-body params one of whose bodies failed (its later samples NaN, the
+    other bodies each at their own row: the flattened finite samples lost the body
+    axis)."""
+    one = np.array([0.3, -0.2, 2.0, 0.8, 0.0])
+    scene = liebody.TorqueBody(BODY, _pulsing_gravity_fails,
+                               potential=lambda t, q, p: _pulsing_potential(t, q, p),
+                               params=one, orientation_only=True)
+    traj = liebody.integrate(scene, q0=quaternion.exp([0.3, 0.2, 0.0]), L0=[0.5, 0.2, 1.0],
+                             dt=0.01, steps=300, t0=1.0)
+    q = traj.q / np.linalg.norm(traj.q, axis=-1, keepdims=True)
+    V = np.array([_pulsing_potential(tk, qk, one) for qk, tk in zip(q, traj.t, strict=True)])
+    np.testing.assert_allclose(traj.potential_energy, V, rtol=1e-14, atol=1e-14)
+    np.testing.assert_allclose(traj.energy, traj.kinetic_energy + V, rtol=1e-14, atol=1e-14)
+
+    rows = np.array([one, [0.0, 1.0, 0.5, -0.4, 0.0], [0.2, 0.1, 1.0, 0.3, 1.0]])
+    ens = liebody.TorqueBody(BODY, _pulsing_gravity_fails,
+                             potential=lambda t, q, p: _pulsing_potential(t, q, p),
+                             params=rows, orientation_only=True)
+    q0, L0 = _states(3, seed=3)
+    with pytest.warns(RuntimeWarning, match="1 of 3 bodies"):
+        tr = liebody.integrate(ens, q0=q0, L0=L0, dt=0.01, steps=100, t0=1.0, simd=False)
+    assert list(tr.status[:2]) == ["complete", "complete"] and tr.failed_at[2] > 1.5
+    Vs = tr.potential_energy
+    assert Vs.shape == (3, len(tr))
+    qn = tr.q / np.linalg.norm(tr.q, axis=-1, keepdims=True)
+    for i in range(3):
+        good = np.isfinite(tr.q[i]).all(axis=-1)
+        want = [_pulsing_potential(tk, qk, rows[i])
+                for qk, tk in zip(qn[i, good], tr.t[good], strict=True)]
+        np.testing.assert_allclose(Vs[i, good], want, rtol=1e-14, atol=1e-14)
+        assert np.isnan(Vs[i, ~good]).all()
+    assert (~np.isfinite(tr.q[2])).any()
