@@ -1032,9 +1032,9 @@ class _Run:
         where = (f"{failed_step_words(done, t0, t_fail)}; the {n_keep:,} samples before it "
                  f"are on this exception's .trajectory")
         if status == S.STATUS_NONFINITE:
-            # a user torque that fails inside a one-stage method (the baselines) shows as a
-            # non-finite state: ask the torque at the step's clock values before blaming
-            # the dynamics
+            # a user torque that fails inside a baseline's step at a state other than its
+            # start (the driver asks it there) shows as a non-finite state: ask the torque
+            # at the step's clock values before blaming the dynamics
             if self.model.function is not None and not _torque_is_finite(
                     self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
                 raise_torque_error(self.model, name, where, state, t0, dt,

@@ -43,7 +43,8 @@ def _where(step: int, t0: float = 0.0, dt: float = DT) -> str:
 #: the step that leaves the table [0, 10] first: the one from t = 10 for a method that
 #: evaluates the torque inside or at the end of its step, the one from t = 10.1 for the
 #: baselines that evaluate it at the step's start only
-FIRST_OUTSIDE = {"splitting2": 100, "rattle": 100}
+FIRST_OUTSIDE = {"splitting2": 100, "rattle": 100, "rk4": 100,
+                 "rkmk4": 100, "euler": 101, "lie_euler": 101}
 
 
 @pytest.mark.parametrize("method", sorted(FIRST_OUTSIDE))
@@ -66,7 +67,7 @@ def test_a_run_that_leaves_the_table_reports_one_step_and_its_times(method):
     assert not re.search(r"at step \d", msg), msg
 
 
-@pytest.mark.parametrize("method", ["rattle", "splitting2"])
+@pytest.mark.parametrize("method", ["rattle", "splitting2", "rk4", "euler"])
 @pytest.mark.parametrize("simd", [False, True])
 def test_the_bodies_of_an_ensemble_fail_where_the_one_body_run_does(method, simd):
     """failed_at per body is the one-body run's, bit for bit; the reason is the torque's
@@ -91,7 +92,7 @@ def test_the_bodies_of_an_ensemble_fail_where_the_one_body_run_does(method, simd
     assert "outside the times [0, 10]" in text, text
 
 
-@pytest.mark.parametrize("method", ["splitting2", "rattle"])
+@pytest.mark.parametrize("method", ["splitting2", "rattle", "rk4", "lie_euler", "rkmk4"])
 def test_a_stepper_that_leaves_the_table_raises_the_torque_error(method):
     """The Stepper's error carries the steps of the call that succeeded and the time of
     the state it failed from (before, a baseline raised a non-finite state)."""
@@ -105,8 +106,34 @@ def test_a_stepper_that_leaves_the_table_raises_the_torque_error(method):
 
 
 @njit
+def _nan_after_half(t, q, L):
+    if t > 0.5:
+        return np.array([np.nan, 0.0, 0.0])
+    return np.array([0.0, 0.0, 0.1])
+
+
+@njit
 def _spin_up(t, q, L):
     return np.array([0.0, 0.0, 20.0])
+
+
+@pytest.mark.parametrize(("method", "k"), [("rk4", 4), ("rkmk4", 4), ("euler", 5),
+                                            ("lie_euler", 5)])
+def test_a_user_torque_that_fails_stops_a_baseline_ensemble_as_a_torque_failure(method, k):
+    """A user torque NaN after t = 0.5, dt = 1/8 (exact in binary): rk4 and rkmk4 ask it
+    at t + dt/2 first in the step from 0.5 (k = 4 steps done), euler and lie_euler at the
+    step's start, first beyond 0.5 in the step from 0.625. Each body stops there as the
+    one-body run does (before: a 'non-finite state')."""
+    scene = liebody.TorqueBody(BODY, _nan_after_half)
+    dt = 0.125
+    with pytest.raises(TorqueError, match=r"returned non-finite values") as info:
+        liebody.integrate(scene, L0=L0, dt=dt, steps=20, method=method)
+    assert info.value.step == k and info.value.t == k * dt
+    assert info.value.trajectory.failed_at == (k + 1) * dt
+    with pytest.warns(RuntimeWarning, match="torque failed"):
+        ens = liebody.integrate(scene, L0=[L0, L0], dt=dt, steps=20, method=method, threads=1)
+    assert ens.failures == ((0, (k + 1) * dt, "torque failed"), (1, (k + 1) * dt,
+                                                                  "torque failed"))
 
 
 def test_a_convergence_error_names_its_step_as_its_fields_do():

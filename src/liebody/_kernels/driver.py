@@ -27,8 +27,8 @@ outside the family stops the run with ``STATUS_BAD_STAGE`` (the Python side neve
 builds such a plan).
 
 The state lives in seven local scalars inside the loop: nothing is allocated per
-step. The loop stops at the first non-finite state or failed implicit solve and
-returns how far it got, so the caller can report it.
+step. The loop stops at the first non-finite state, failed implicit solve or failing
+torque and returns how far it got, so the caller can report it.
 """
 
 from __future__ import annotations
@@ -64,6 +64,7 @@ from liebody._kernels.stages import (
     F_DMV_FREE,
     F_EULER,
     F_EXACT,
+    F_GENERAL,
     F_KICKED,
     F_LIE_EULER,
     F_RK4,
@@ -267,6 +268,37 @@ def _any_stage(kind, axis, p, t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, m
     return r[0], r[1], r[2], r[3], r[4], r[5], r[6], STATUS_OK
 
 
+@jit
+def _baseline_torque_ok(kind, p, t, h, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model):
+    """Whether the torque of a baseline step of ``kind`` from ``t`` (size ``h``) is finite
+    at the step's start state, its ``q`` normalised, at the clock values the step
+    evaluates it at: ``t`` (euler, lie_euler), also ``t + h/2`` and ``t + h`` (rk4,
+    rkmk4; the same floating-point times).
+
+    The baselines add the torque to the state unchecked, so a torque that fails (a time
+    outside a sampled orbit's table, a user torque's NaN) shows as a non-finite state; the
+    driver asks this only then (no cost to a healthy step), to report ``STATUS_TORQUE``
+    as the splittings' kicks do (they see unit quaternions). ``q`` is normalised so that a
+    blow-up of the baseline itself (euler's ``|q|`` grows until a torque quadratic in
+    ``q`` overflows) stays a non-finite state. True for any other kind."""
+    if kind != EULER and kind != LIE_EULER and kind != RK4 and kind != RKMK4:
+        return True
+    n2 = w * w + x * x + y * y + z * z
+    if not (0.0 < n2 < math.inf):
+        return True  # (no orientation to ask the torque at: the state's own failure)
+    s = 1.0 / math.sqrt(n2)
+    w, x, y, z = w * s, x * s, y * s, z * s
+    if not _torque(p, t, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)[3]:
+        return False
+    if kind == RK4 or kind == RKMK4:
+        b = 0.5 * h
+        if not _torque(p, t + b, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)[3]:
+            return False
+        if not _torque(p, t + h, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)[3]:
+            return False
+    return True
+
+
 # ------------------------------------------------------------------ the loop
 @jit
 def _diagnose(t, w, x, y, z, m1, m2, m3, mp, ms, dref, dmax, model):
@@ -453,6 +485,13 @@ def _runner(family: int, diag: bool = False):
                 acc = w + x + y + z + m1 + m2 + m3
                 if not (abs(acc) < 1e308):
                     status = STATUS_NONFINITE
+                    # a baseline step (one stage): its unchecked torque, or the dynamics?
+                    if ns == 1 and (family == F_EULER or family == F_RK4 or family == F_LIE_EULER
+                                    or family == F_RKMK4 or family == F_GENERAL) and not \
+                            _baseline_torque_ok(kinds[0], params[slots[0]],
+                                                t0 + (step0 + step) * h, coefs[0] * h, gw, gx,
+                                                gy, gz, g1, g2, g3, torque_addr, mp, ms, model):
+                        status = STATUS_TORQUE
             if status != STATUS_OK:
                 state[0], state[1], state[2], state[3] = gw, gx, gy, gz
                 state[4], state[5], state[6] = g1, g2, g3
