@@ -338,9 +338,14 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     simd
         Ensembles only: the kernels that step a block of bodies at once in SIMD
         registers (a polynomial sine and cosine instead of the C library's, about 10x
-        cheaper per body-step) for the methods and scenes they support: the splittings
-        and ``rattle`` on free bodies and on heavy tops, ``sr2`` and ``dmv*`` on free
-        bodies (no user torque, no dissipation). ``None`` (default): used for ensembles of at least
+        cheaper per body-step) for the methods and scenes they support: the splittings,
+        their compositions and ``rattle`` on free bodies and under a torque that depends
+        on the time and orientation only (uniform gravity, the gravity gradient, a user
+        torque with ``orientation_only``: explicit kicks), ``sr2`` and ``dmv*`` on free
+        bodies; not a torque that depends on the momentum (implicit kicks), dissipation,
+        rotors (gyrostats, reaction wheels), the SABA_n, the exact flow or the baselines
+        (``info["simd"]`` is then false). ``None`` (default):
+        used for ensembles of at least
         ``SIMD_MIN_BODIES`` (3) bodies; ``True``: for any ensemble; ``False``: never
         (every body then gets exactly the numbers of its one-body call).
         ``Trajectory.info["simd"]`` says whether they ran. Their results agree with the

@@ -34,6 +34,8 @@ from liebody._engine import (
     STEP0,
     T0,
     batch_args,
+    failed_step_times,
+    failed_step_words,
     groups_info,
     next_slice,
     one_body_args,
@@ -510,9 +512,9 @@ class Stepper:
         from liebody._integrate import raise_torque_error, torque_stiffness
 
         name, dt = self._method.name, self._dt
-        t0 = self._clock(done)
-        where = (f"at step {done + 1} of this call (t = {t0:.6g}); the stepper is left as it "
-                 f"was before the call")
+        t0, t1 = failed_step_times(self._t0, self._k + done, dt)  # (t0: self._clock(done))
+        where = (failed_step_words(done, t0, t1, " of this call")
+                 + "; the stepper is left as it was before the call")
         if status == S.STATUS_TORQUE or (status == S.STATUS_NONFINITE
                                          and self._model.function is not None):
             from liebody._integrate import _torque_is_finite

@@ -103,6 +103,10 @@ def test_a_stepper_that_leaves_the_table_raises_the_torque_error(method):
     k = FIRST_OUTSIDE[method]
     assert info.value.step == k - 50 and info.value.t == k * DT
     assert st.t == 50 * DT  # left as before the call
+    # the words are the fields: the steps of this call, the failing step's start and end
+    text = str(info.value)
+    assert f"in the step from t = {k * DT:.10g} to t = {(k + 1) * DT:.10g} (after " \
+           f"{k - 50:,} steps of this call)" in text, text
 
 
 @njit
@@ -171,6 +175,7 @@ def test_a_state_that_blows_up_names_its_step_as_the_fields_do():
         st.step(2000)
     assert type(info.value) is IntegrationError
     assert info.value.step == k and info.value.t == 0.5 + k * DT
+    assert _where(k, 0.5).replace(" steps)", " steps of this call)") in str(info.value)
 
 
 def test_the_exact_flow_names_the_samples_it_failed_between():
