@@ -121,7 +121,7 @@ def failed_step_words(step: int, t: float, failed_at: float, counted: str = "") 
     ``.t``) to ``failed_at`` (``Trajectory.failed_at``), after ``step`` good steps (the
     error's ``.step``; ``counted``, e.g. ``" of this call"``, says what they count)."""
     return (f"in the step from t = {t:.10g} to t = {failed_at:.10g} (after {step:,} "
-            f"steps{counted})")
+            f"step{'' if step == 1 else 's'}{counted})")
 
 
 def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> str | None:

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liebody._engine import failed_step_times, failed_step_words
 from liebody._validate import as_float_array, as_positive_float, as_unit_quaternion
 from liebody.errors import (
     ConvergenceError,
@@ -408,9 +409,10 @@ class CoupledTrajectory(Trajectory):
                 f"{self.t[-1]:g}], {status})")
 
     def body(self, i: int) -> Trajectory:
-        """Body ``i``'s samples as a one-body trajectory (:meth:`Trajectory.body`), its
-        scene the free body (:meth:`CoupledBodies.take`: the coupling is not part of
-        it), ``failed_at`` and ``status`` the system's."""
+        """Body ``i``'s samples as a one-body trajectory
+        (:meth:`liebody.Trajectory.body`), its scene the free body
+        (:meth:`CoupledBodies.take`: the coupling is not part of it), ``failed_at`` and
+        ``status`` the system's."""
         import dataclasses
 
         n = self.n_bodies
@@ -781,10 +783,10 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
             f"{1 + saved:,} samples so far are on this exception's .trajectory", traj, done,
             t0 + done * dt) from None
     if status != 0:
-        tf = t0 + done * dt
+        tf, t1 = failed_step_times(t0, done, dt)
         traj = _trajectory(scene, method, dt, t0, t[:1 + saved], q_out[:, :1 + saved].copy(),
-                           m_out[:, :1 + saved].copy(), "failed", tf + dt)
-        raise _failure(run, status, body, t0, done, f"in step {done + 1:,} (t = {tf:.6g})",
+                           m_out[:, :1 + saved].copy(), "failed", t1)
+        raise _failure(run, status, body, t0, done, failed_step_words(done, tf, t1),
                        f"the {1 + saved:,} samples before it are on this exception's "
                        f".trajectory", traj, done)
     traj = _trajectory(scene, method, dt, t0, t, q_out, m_out, "complete",
@@ -960,7 +962,8 @@ class CoupledStepper:
                     self._k = k + 1
                     continue
                 error = _failure(run, status, body, self._t0, k,
-                                 f"at step {i + 1} of this call (t = {self.t:.6g})",
+                                 failed_step_words(i, *failed_step_times(self._t0, k, self._dt),
+                                                   " of this call"),
                                  "the stepper is left as it was before the call", None, i)
                 run.bufs[:], run.lmax[:], self._k = bufs, lmax, k0
                 run.ctl[1] = 0

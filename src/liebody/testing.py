@@ -440,9 +440,12 @@ def run_step(step: Callable, problem: Problem, *, dt: float, steps: int,
     traj = Trajectory(t, q, L, problem.scene, None, dt, failed_at=failed,
                       info={"step": name}, status="complete" if bad is None else "failed")
     if bad is not None:
+        from liebody._engine import failed_step_words
+
         warnings.warn(
-            f"{name}: the state became non-finite at step {bad:,} (t = {bad * dt:.6g}); "
-            f"returning the {len(t):,} samples before it (Trajectory.failed_at is set)",
+            f"{name}: the state became non-finite "
+            f"{failed_step_words(bad - 1, (bad - 1) * dt, bad * dt)}; returning the "
+            f"{len(t):,} samples before it (Trajectory.failed_at is set)",
             RuntimeWarning, stacklevel=2)
     else:
         qn = float(np.linalg.norm(q[-1]))

@@ -37,7 +37,8 @@ def _scene():
 def _where(step: int, t0: float = 0.0, dt: float = DT) -> str:
     """The words that must name the failing step: its start, its end, the steps done."""
     start, end = t0 + step * dt, t0 + (step + 1) * dt
-    return f"in the step from t = {start:.10g} to t = {end:.10g} (after {step:,} steps)"
+    steps = "step" if step == 1 else "steps"
+    return f"in the step from t = {start:.10g} to t = {end:.10g} (after {step:,} {steps})"
 
 
 #: the step that leaves the table [0, 10] first: the one from t = 10 for a method that

@@ -328,7 +328,11 @@ def test_a_torque_that_fails_stops_the_run_naming_the_body_and_keeping_the_sampl
     scene, q0, L0 = _system()
     bad = CoupledBodies(liebody.RigidBody.batch(scene.moments, check_triangle=False),
                         _blows_up)
-    with pytest.raises(liebody.TorqueError, match="for body 2 in step") as info:
+    with pytest.raises(liebody.TorqueError, match=r"for body 2 in the step from t = 0\.5 to "
+                                                  r"t = 0\.6 \(after 5 steps\)") as info:
         liebody.integrate(bad, q0=q0, L0=L0, dt=0.1, steps=20, method="splitting2")
+    # the words are the fields: 5 good steps, the failing one from t0 + 5 dt to t0 + 6 dt
+    assert info.value.step == 5 and info.value.t == 5 * 0.1
+    assert info.value.trajectory.failed_at == 6 * 0.1
     tr = info.value.trajectory
     assert tr.t[-1] <= 0.5 + 1e-12 and len(tr.t) >= 5 and np.isfinite(tr.q).all()

@@ -133,8 +133,11 @@ def test_a_failing_stepper_call_leaves_the_state_before_the_call():
     st = liebody.Stepper(scene, q0=q0, L0=L0, dt=0.1)
     st.step(4)
     q, L, t = st.q, st.L, st.t
-    with pytest.raises(liebody.TorqueError, match="for body 1"):
+    with pytest.raises(liebody.TorqueError, match=r"for body 1 in the step from t = 0\.5 to "
+                                                  r"t = 0\.6 \(after 1 step of this "
+                                                  r"call\)") as info:
         st.step(3)  # its second step's last kick, at t = 0.6, fails
+    assert info.value.step == 1 and info.value.t == 5 * 0.1  # (the words' fields)
     assert np.array_equal(st.q, q) and np.array_equal(st.L, L) and st.t == t
     free = liebody.integrate(scene, q0=q0, L0=L0, dt=0.1, steps=4, save_every=1)
     assert np.array_equal(st.L, free.L[:, -1])  # (zero torque so far: free bodies)

@@ -304,8 +304,9 @@ def test_a_step_that_blows_up_ends_the_run():
     def bad(q, L, h):
         return q, L + math.inf
 
-    with pytest.warns(RuntimeWarning, match=r"bad: the state became non-finite at step 1 "
-                                            r"\(t = 0\.1\); returning the 1 samples"):
+    with pytest.warns(RuntimeWarning, match=r"bad: the state became non-finite in the step "
+                                            r"from t = 0 to t = 0\.1 \(after 0 steps\); "
+                                            r"returning the 1 samples"):
         traj = testing.run_step(bad, p, dt=0.1, steps=5)
     assert traj.status == "failed" and traj.failed_at == pytest.approx(0.1) and len(traj) == 1
 
@@ -344,7 +345,8 @@ def test_assert_invariants_fails_runs_that_did_not_complete():
         n[0] += 1
         return (q, L) if n[0] < 500 else (q * np.nan, L)
 
-    with pytest.warns(RuntimeWarning, match="non-finite at step 500"):
+    with pytest.warns(RuntimeWarning, match=r"non-finite in the step from t = 4\.99 to "
+                                            r"t = 5 \(after 499 steps\)"):
         traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
     assert traj.status == "failed"
     with pytest.raises(AssertionError, match=r"the run did not complete: failed at t = "):
@@ -413,7 +415,8 @@ def test_a_failed_run_with_few_samples_is_reported_as_failed():
         n[0] += 1
         return (q, L) if n[0] < 30 else (q, L * np.nan)
 
-    with pytest.warns(RuntimeWarning, match="non-finite at step 30"):
+    with pytest.warns(RuntimeWarning, match=r"non-finite in the step from t = 0\.29 to "
+                                            r"t = 0\.3 \(after 29 steps\)"):
         traj = testing.run_step(dies, "hlw", dt=0.01, steps=1000)
     assert len(traj) == 30
     with pytest.raises(AssertionError, match=r"the run did not complete: failed at "
