@@ -205,15 +205,10 @@ def test_constant_controls_replayed_by_one_integrate_call():
         tr = liebody.integrate(craft, q0=Q0_CRAFT, L0=L0_CRAFT, dt=PERIOD, steps=k * n,
                                save_every=n, controls=u)
         s = liebody.Stepper(craft, q0=Q0_CRAFT, L0=L0_CRAFT, dt=PERIOD, controls=u)
-        qs, Ls, ts = [s.q], [s.L], [s.t]
-        for _ in range(k):
-            s.step(n)
-            qs.append(s.q)
-            Ls.append(s.L)
-            ts.append(s.t)
-        np.testing.assert_array_equal(np.array(qs), tr.q)
-        np.testing.assert_array_equal(np.array(Ls), tr.L)
-        np.testing.assert_array_equal(np.array(ts), tr.t)
+        qs, Ls, ts = stepper_states(s, k, n)
+        np.testing.assert_array_equal(qs, tr.q)
+        np.testing.assert_array_equal(Ls, tr.L)
+        np.testing.assert_array_equal(ts, tr.t)
         assert s.steps == k * n
         # the controls acted (a free body keeps |L|)
         assert abs(np.linalg.norm(Ls[-1]) - np.linalg.norm(Ls[0])) > 1.0
