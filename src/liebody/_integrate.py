@@ -344,9 +344,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         torque with ``orientation_only``: explicit kicks), ``sr2`` and ``dmv*`` on free
         bodies; not a torque that depends on the momentum (implicit kicks), dissipation,
         rotors (gyrostats, reaction wheels), the SABA_n, the exact flow or the baselines
-        (``info["simd"]`` is then false). ``None`` (default):
-        used for ensembles of at least
-        ``SIMD_MIN_BODIES`` (3) bodies; ``True``: for any ensemble; ``False``: never
+        (``info["simd"]`` is then false). ``None`` (default): used for ensembles of at
+        least ``SIMD_MIN_BODIES`` (3) bodies; ``True``: for any ensemble; ``False``: never
         (every body then gets exactly the numbers of its one-body call).
         ``Trajectory.info["simd"]`` says whether they ran. Their results agree with the
         one-body call to round-off (a few 1e-16 per step, growing with the orbit's phase
