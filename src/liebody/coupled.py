@@ -678,15 +678,6 @@ def _check_derivation(scene, q, m, t0) -> None:
             f"a torque in the space frame?)")
 
 
-def _clock_start(name, value, dt) -> float:
-    """A finite start time from which steps of ``dt`` advance the clock."""
-    t0 = float(as_float_array(name, value, shape=()))
-    if t0 + dt == t0:
-        raise ValueError(f"{name} = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64, so the "
-                         f"clock could not advance")
-    return t0
-
-
 def _check_torque(scene, q, m, t0):
     """Call the torque once from Python at the initial state: a wrong signature or a
     failing torque is named before the run."""
@@ -882,10 +873,11 @@ class CoupledStepper:
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, t0: float = 0.0) -> None:
         from liebody import _methods
+        from liebody._stepper import _clock_origin
 
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
-        t0 = _clock_start("t0", t0, self._dt)
+        t0 = _clock_origin("t0", t0, self._dt)
         self._method = _methods.get(scene.default_method if method is None else method)
         q, m = _initial(scene, q0, L0, omega0)
         self._run = _prepare(scene, self._method, q, m, self._dt)
@@ -913,7 +905,9 @@ class CoupledStepper:
 
     @t.setter
     def t(self, value) -> None:
-        self._t0 = _clock_start("t", value, self._dt)
+        from liebody._stepper import _clock_origin
+
+        self._t0 = _clock_origin("t", value, self._dt)
         self._k = 0
 
     @property
