@@ -642,18 +642,18 @@ def _check_potential(scene, q, t0) -> None:
                          f"(V = {V.tolist()})")
 
 
-def _check_derivation(scene, q, m, t0) -> None:
+def _check_derivation(scene, q, N, t0) -> None:
     """With a potential, the torque must be minus its derivative under rotations of the
     bodies (body frame). Checked along one random rotation of all bodies at once,
     ``q_i -> q_i exp(s e_i / 2)``: ``dV/ds = -sum_i e_i . N_i`` at ``s = 0``, against
     central differences at ``s = h`` and ``h / 2`` (judged only where the two agree: a
-    smooth ``V``). A sign error or a torque in the space frame is refused."""
+    smooth ``V``). ``N``: the torque at ``(t0, q)`` (:func:`_check_torque`'s). A sign
+    error or a torque in the space frame is refused."""
     if scene.potential_function is None:
         return
     from liebody import quaternion as Q
 
     e = np.random.default_rng(20241126).normal(size=q.shape[:1] + (3,))
-    N = scene.evaluate_torque(q, m, t0)
     want = -float(np.sum(e * N))
     h = 1e-4
 
@@ -678,9 +678,9 @@ def _check_derivation(scene, q, m, t0) -> None:
             f"a torque in the space frame?)")
 
 
-def _check_torque(scene, q, m, t0):
-    """Call the torque once from Python at the initial state: a wrong signature or a
-    failing torque is named before the run."""
+def _check_torque(scene, q, m, t0) -> np.ndarray:
+    """Call the torque from Python at the initial state: a wrong signature or a failing
+    torque is named before the run; returns the torque there."""
     try:
         out = scene.evaluate_torque(q, m, t0)
     except Exception as exc:
@@ -707,6 +707,7 @@ def _check_torque(scene, q, m, t0):
         raise ValueError(f"the coupled torque depends on L: at the initial t and q it gives "
                          f"{out[i].tolist()} for body {i} at L0 = {m[i].tolist()} and "
                          f"{other[i].tolist()} at L = 2 L0 + 1. {why}")
+    return out
 
 
 @contextmanager
@@ -745,9 +746,9 @@ def integrate_coupled(scene, *, q0, L0, omega0, dt, n_steps, save_every, method,
     method = _methods.get(scene.default_method if method is None else method)
     q, m = _initial(scene, q0, L0, omega0)
     run = _prepare(scene, method, q, m, dt)
-    _check_torque(scene, q, m, t0)
+    N = _check_torque(scene, q, m, t0)
     _check_potential(scene, q, t0)
-    _check_derivation(scene, q, m, t0)
+    _check_derivation(scene, q, N, t0)
     n = scene.n_bodies
     k = t.shape[0]
     q_out, m_out = np.empty((n, k, 4)), np.empty((n, k, 3))
