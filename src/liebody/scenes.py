@@ -694,8 +694,13 @@ class TorqueBody(Scene):
         is not finite there is not judged (the run's check reports it). Else
         ``ValueError``: the energy diagnostics would follow another system's energy, and
         the end-of-run check blame the step."""
+        from liebody import quaternion
+
         h = 1e-5
         c, s = math.cos(h / 2.0), math.sin(h / 2.0)
+        # q exp(+-h e_k / 2) = q (c, +-s e_k), k = 0, 1, 2, for each probe orientation
+        steps = np.array([[c, *(sk * e)] for e in np.eye(3) for sk in (s, -s)])
+        turned = [quaternion.multiply(q, steps) for q in self._PROBE_Q]
         rows = model.params.reshape(-1, model.params.shape[-1])
         for i in sorted({0, len(rows) // 2, len(rows) - 1}):
             p = rows[i]
@@ -705,18 +710,10 @@ class TorqueBody(Scene):
                 return float(self.potential_fn(r) if self.params is None
                              else self.potential_fn(0.0, r, p))
 
-            for w, x, y, z in self._PROBE_Q:
-                def turned(k, sk, w=w, x=x, y=y, z=z):  # q (c, sk e_k) = q exp(+-h e_k / 2)
-                    e = [0.0, 0.0, 0.0]
-                    e[k] = sk
-                    return (w * c - (x * e[0] + y * e[1] + z * e[2]),
-                            c * x + w * e[0] + (y * e[2] - z * e[1]),
-                            c * y + w * e[1] + (z * e[0] - x * e[2]),
-                            c * z + w * e[2] + (x * e[1] - y * e[0]))
-
-                turns = [(turned(k, s), turned(k, -s)) for k in range(3)]
+            for (w, x, y, z), turns in zip(self._PROBE_Q, turned, strict=True):
                 try:
-                    grad = np.array([(V(a) - V(b)) / (2.0 * h) for a, b in turns])
+                    grad = np.array([(V(a) - V(b)) / (2.0 * h)
+                                     for a, b in zip(turns[0::2], turns[1::2], strict=True)])
                     size = abs(V((w, x, y, z)))
                     torque = np.asarray(model(0.0, np.array([w, x, y, z]),
                                               np.array(self._PROBE_L), None, i), dtype=float)
