@@ -796,7 +796,7 @@ def _failure(run, status, body, t0, done, where, then, traj, step):
     from liebody._kernels import stages as S
 
     name, dt = run.method.name, run.dt
-    tf = t0 + float(done) * dt
+    tf = failed_step_times(t0, done, dt)[0]  # (the words' start of the step)
     if status == S.STATUS_NO_CONVERGENCE:
         return ConvergenceError(
             f"{name}: the implicit DMV (RATTLE) equation of body {body} has no solution "
