@@ -166,6 +166,20 @@ def _step_count(dt: float, steps, t_end) -> int:
     return int(k)
 
 
+def _clock_origin(name: str, value, dt: float) -> float:
+    """``value`` as the clock's origin (a finite number), or the error naming ``name``;
+    refused where ``value + dt == value`` in float64: the clock could not advance (the
+    ``t0`` of integrate() and the Stepper, the Stepper's ``t``)."""
+    t = float(as_float_array(name, value, shape=()))
+    if t + dt == t:
+        raise ValueError(
+            f"{name} = {t!r} and dt = {dt!r}: {name} + dt == {name} in float64 (times near "
+            f"{name} are {math.ulp(t):.3g} apart), so the clock could not advance. Measure "
+            f"the time from a later origin (subtract a reference time from {name}), or use a "
+            f"dt above {0.5 * math.ulp(t):.3g}")
+    return t
+
+
 def _per_sample(bodies: int) -> int:
     """Bytes a sample takes: its time, and ``q``, ``L`` of every body."""
     return SAMPLE_BYTES if bodies == 1 else 8 + (SAMPLE_BYTES - 8) * bodies
@@ -412,13 +426,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if not (dt.__class__ is float and 0.0 < dt < math.inf):  # (else a float at once)
         dt = as_positive_float("dt", dt)
     if t0 != 0.0:
-        t0 = float(as_float_array("t0", t0, shape=()))
-        if t0 + dt == t0:
-            raise ValueError(
-                f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64 (times near t0 are "
-                f"{math.ulp(t0):.3g} apart), so the clock could not advance. Measure the "
-                f"time from a later origin (subtract a reference time from t0), or use a "
-                f"dt above {0.5 * math.ulp(t0):.3g}")
+        t0 = _clock_origin("t0", t0, dt)
     elif t0.__class__ is not float:  # a zero of another type: the drivers take a float
         t0 = float(as_float_array("t0", t0, shape=()))
     if t_end is None and steps.__class__ is int and 0 < steps <= MAX_STEPS:

@@ -41,8 +41,9 @@ from liebody._engine import (
     one_body_args,
 )
 from liebody._engine import entry_point as _entry_point
+from liebody._integrate import _clock_origin
 from liebody._kernels import stages as S
-from liebody._validate import as_float_array, as_positive_float, as_positive_int
+from liebody._validate import as_positive_float, as_positive_int
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import ConvergenceError, IntegrationError, IntegrationInterrupted
 from liebody.scenes import Scene
@@ -55,20 +56,6 @@ _FLOAT64 = np.dtype(np.float64)
 #: body-steps in the first slice of a stepper that has not measured its cost yet (the
 #: later ones: ``_engine.next_slice``, about ``_engine.SLICE_SECONDS`` each)
 _FIRST_WORK = 64
-
-
-def _clock_origin(name: str, value, dt: float) -> float:
-    """``value`` as the clock's origin (a finite number), or the error naming ``name``;
-    refused, as :func:`liebody.integrate` refuses such a ``t0``, where ``value + dt ==
-    value`` in float64: the clock the torque sees could not advance."""
-    t = float(as_float_array(name, value, shape=()))
-    if t + dt == t:
-        raise ValueError(
-            f"{name} = {t!r} and dt = {dt!r}: {name} + dt == {name} in float64 (times near "
-            f"{name} are {math.ulp(t):.3g} apart), so the clock could not advance. Measure "
-            f"the time from a later origin (subtract a reference time from {name}), or use a "
-            f"dt above {0.5 * math.ulp(t):.3g}")
-    return t
 
 
 def _join(pool) -> None:
