@@ -431,6 +431,12 @@ def _depends_on_L(t, q, L):
     return -0.3 * L
 
 
+def _depends_on_large_L(t, q, L):
+    """Reads L only where |L| > 10: not at the scene's own probe state (|L| < 4 there), at
+    the initial state of the run below (|L0| above 20)."""
+    return -0.3 * L if L @ L > 100.0 else np.zeros(3)
+
+
 def _small_tilt(t, q, L):
     return np.array([0.1 * q[1], 0.1 * q[2], -0.1 * q[3]])
 
@@ -451,13 +457,18 @@ def _check_cases():
     return {
         "orientation_only promise": (
             liebody.TorqueBody(body, njit(_depends_on_L), orientation_only=True), kw),
+        "orientation_only promise at the initial state": (
+            liebody.TorqueBody(body, njit(_depends_on_large_L), orientation_only=True),
+            {**kw, "L0": 20.0 * L0}),
         "potential": (liebody.TorqueBody(body, njit(_small_tilt), potential=_nan_potential,
                                          orientation_only=True), kw),
         "t0 + dt == t0": (liebody.FreeBody(body), {**kw, "t0": 1e17}),
     }
 
 
-@pytest.mark.parametrize("case", ["orientation_only promise", "potential", "t0 + dt == t0"])
+@pytest.mark.parametrize("case", ["orientation_only promise",
+                                  "orientation_only promise at the initial state",
+                                  "potential", "t0 + dt == t0"])
 def test_the_local_calls_checks_of_the_scene_are_made_on_the_client(inproc, monkeypatch,
                                                                     case):
     """A torque that reads L though the scene promises orientation_only, a potential that
