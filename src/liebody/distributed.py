@@ -156,6 +156,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
         _check_phase,
         _check_potential,
         _check_torque,
+        _clock_origin,
         _first_row,
         _initial_momentum,
         _sample_times,
@@ -163,7 +164,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
         _step_count,
         as_controls,
     )
-    from liebody._validate import as_float_array, as_positive_float, as_positive_int
+    from liebody._validate import as_positive_float, as_positive_int
     from liebody._validate import as_unit_quaternion as _as_unit_q
     from liebody.scenes import Scene
 
@@ -182,13 +183,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     m = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
     if t0 != 0.0:
-        t0 = float(as_float_array("t0", t0, shape=()))
-        if t0 + dt == t0:  # (the local call's refusal and words)
-            raise ValueError(
-                f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64 (times near t0 are "
-                f"{math.ulp(t0):.3g} apart), so the clock could not advance. Measure the "
-                f"time from a later origin (subtract a reference time from t0), or use a "
-                f"dt above {0.5 * math.ulp(t0):.3g}")
+        t0 = _clock_origin("t0", t0, dt)  # (the local call's refusal and words)
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(diagnostics, bool | np.bool_):
