@@ -919,13 +919,13 @@ def _swings(r: np.ndarray, resolution: float) -> float:
     return 0.5 * float(np.count_nonzero(np.diff(side)))
 
 
-def _cycles(e: np.ndarray, resid: np.ndarray, resolution: float) -> float:
+def _cycles(e: np.ndarray, swings: float, resolution: float) -> float:
     """Cycles over the run of the error's fluctuation about its trend: the larger of
     Rice's count on ``e`` smoothed by three passes of a moving average of
     ``n / BLOCKS`` samples (not decimated, so that a fast oscillation is damped, not
-    aliased into a slow one) and the swings of the raw residual ``resid`` (a fast
-    oscillation, which the smoothing removes); ``inf`` when ``resid`` does not exceed
-    the round-off ``resolution``."""
+    aliased into a slow one) and ``swings``, those of the raw residual (``_swings``: a
+    fast oscillation, which the smoothing removes; ``inf`` when the residual does not
+    exceed the round-off ``resolution``)."""
     n = e.size
     b = max(1, n // BLOCKS)
     s = e
@@ -933,7 +933,6 @@ def _cycles(e: np.ndarray, resid: np.ndarray, resolution: float) -> float:
         c = np.concatenate(([0.0], np.cumsum(s)))
         s = (c[b:] - c[:-b]) / b
     smooth = _rice_cycles(_detrended(s), n - 1, resolution)  # inf: nothing slow left
-    swings = _swings(resid, resolution)
     return swings if math.isinf(smooth) else max(smooth, swings)
 
 
@@ -1029,11 +1028,12 @@ def energy_drift(traj=None, *, t=None, energy=None, relative: bool = True) -> En
     # rate, its standard error and the share of variance it explains: 20 block means
     rate, rate_se, trend_share = _block_fit(t - t[0], e, 20)
     resid = _detrended(e)
-    cycles = _cycles(e, resid, resolution)
+    swings = _swings(resid, resolution)
+    cycles = _cycles(e, swings, resolution)
     # the change over the run a least-squares line shows for a bounded oscillation of
     # the error's size about its trend, A sin(2 pi N t / T + phi): at most
     # (12 / (2 pi N) + 24 / (2 pi N)^2) A; N the fewer of Rice's count and the swings
-    periods = max(0.5, min(_rice_cycles(resid, n - 1, resolution), _swings(resid, resolution)))
+    periods = max(0.5, min(_rice_cycles(resid, n - 1, resolution), swings))
     leak = (math.sqrt(2.0) * float(resid.std())
             * (12.0 / (2.0 * math.pi * periods) + 24.0 / (2.0 * math.pi * periods) ** 2))
     trend_real = abs(rate) * span > DRIFT_LEAKAGE * leak
