@@ -525,10 +525,7 @@ def _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method, save_eve
     if not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     dt = as_positive_float("dt", dt)
-    t0 = float(as_float_array("t0", t0, shape=()))
-    if t0 + dt == t0:
-        raise ValueError(f"t0 = {t0!r} and dt = {dt!r}: t0 + dt == t0 in float64, so the "
-                         f"clock could not advance")
+    t0 = _clock_origin("t0", t0, dt)
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     t = _sample_times(n_steps, save_every, dt, scene.n_bodies, RUN_BYTES_PER_BODY)
