@@ -499,7 +499,7 @@ class Stepper:
         from liebody._integrate import raise_torque_error, torque_stiffness
 
         name, dt = self._method.name, self._dt
-        t0, t1 = failed_step_times(self._t0, self._k + done, dt)  # (t0: self._clock(done))
+        t0, t1 = failed_step_times(self._t0, self._k + done, dt)
         where = (failed_step_words(done, t0, t1, " of this call")
                  + "; the stepper is left as it was before the call")
         if status == S.STATUS_TORQUE or (status == S.STATUS_NONFINITE
@@ -782,10 +782,6 @@ class Stepper:
             self._k = 0.0
             if self._fast:
                 self._args[T0] = self._t0
-
-    def _clock(self, done: int) -> float:
-        """The time after ``done`` more steps."""
-        return self._t0 + (self._k + done) * self._dt
 
     def replan(self) -> None:
         """Plan the method again for the current state (the axis ordering of the
