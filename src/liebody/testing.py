@@ -440,11 +440,11 @@ def run_step(step: Callable, problem: Problem, *, dt: float, steps: int,
     traj = Trajectory(t, q, L, problem.scene, None, dt, failed_at=failed,
                       info={"step": name}, status="complete" if bad is None else "failed")
     if bad is not None:
-        from liebody._engine import failed_step_words
+        from liebody._engine import failed_step_times, failed_step_words
 
         warnings.warn(
             f"{name}: the state became non-finite "
-            f"{failed_step_words(bad - 1, (bad - 1) * dt, bad * dt)}; returning the "
+            f"{failed_step_words(bad - 1, *failed_step_times(0.0, bad - 1, dt))}; returning the "
             f"{len(t):,} samples before it (Trajectory.failed_at is set)",
             RuntimeWarning, stacklevel=2)
     else:
