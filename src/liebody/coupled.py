@@ -874,7 +874,7 @@ class CoupledStepper:
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, t0: float = 0.0) -> None:
         from liebody import _methods
-        from liebody._stepper import _clock_origin
+        from liebody._integrate import _clock_origin
 
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
@@ -906,7 +906,7 @@ class CoupledStepper:
 
     @t.setter
     def t(self, value) -> None:
-        from liebody._stepper import _clock_origin
+        from liebody._integrate import _clock_origin
 
         self._t0 = _clock_origin("t", value, self._dt)
         self._k = 0
