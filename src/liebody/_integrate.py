@@ -57,7 +57,13 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
 from liebody._ordering import ROWS_AT_ONCE
-from liebody._validate import F64, as_float_array, as_positive_float, as_positive_int
+from liebody._validate import (
+    F64,
+    as_float_array,
+    as_positive_float,
+    as_positive_int,
+    clock_origin,
+)
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import (
     ConvergenceError,
@@ -164,20 +170,6 @@ def _step_count(dt: float, steps, t_end) -> int:
             f"t_end must be a whole number of steps dt: t_end/dt = {n!r}; choose dt = "
             f"t_end/k for an integer k, or pass steps= instead")
     return int(k)
-
-
-def _clock_origin(name: str, value, dt: float) -> float:
-    """``value`` as the clock's origin (a finite number), or the error naming ``name``;
-    refused where ``value + dt == value`` in float64: the clock could not advance (the
-    ``t0`` of integrate() and the Stepper, the Stepper's ``t``)."""
-    t = float(as_float_array(name, value, shape=()))
-    if t + dt == t:
-        raise ValueError(
-            f"{name} = {t!r} and dt = {dt!r}: {name} + dt == {name} in float64 (times near "
-            f"{name} are {math.ulp(t):.3g} apart), so the clock could not advance. Measure "
-            f"the time from a later origin (subtract a reference time from {name}), or use a "
-            f"dt above {0.5 * math.ulp(t):.3g}")
-    return t
 
 
 def _per_sample(bodies: int) -> int:
@@ -426,7 +418,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if not (dt.__class__ is float and 0.0 < dt < math.inf):  # (else a float at once)
         dt = as_positive_float("dt", dt)
     if t0 != 0.0:
-        t0 = _clock_origin("t0", t0, dt)
+        t0 = clock_origin("t0", t0, dt)
     elif t0.__class__ is not float:  # a zero of another type: the drivers take a float
         t0 = float(as_float_array("t0", t0, shape=()))
     if t_end is None and steps.__class__ is int and 0 < steps <= MAX_STEPS:
@@ -525,7 +517,7 @@ def _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method, save_eve
     if not isinstance(progress, bool | np.bool_):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     dt = as_positive_float("dt", dt)
-    t0 = _clock_origin("t0", t0, dt)
+    t0 = clock_origin("t0", t0, dt)
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     t = _sample_times(n_steps, save_every, dt, scene.n_bodies, RUN_BYTES_PER_BODY)

@@ -41,9 +41,8 @@ from liebody._engine import (
     one_body_args,
 )
 from liebody._engine import entry_point as _entry_point
-from liebody._integrate import _clock_origin
 from liebody._kernels import stages as S
-from liebody._validate import as_positive_float, as_positive_int
+from liebody._validate import as_positive_float, as_positive_int, clock_origin
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import ConvergenceError, IntegrationError, IntegrationInterrupted
 from liebody.scenes import Scene
@@ -212,7 +211,7 @@ class Stepper:
         _check_batch("q0", q)
         m = _initial_momentum(scene, L0, omega0)
         self._dt = as_positive_float("dt", dt)
-        t0 = 0.0 if t0.__class__ is float and t0 == 0.0 else _clock_origin("t0", t0, self._dt)
+        t0 = 0.0 if t0.__class__ is float and t0 == 0.0 else clock_origin("t0", t0, self._dt)
         self._threads = resolve_threads(threads)
         self._simd = None if simd is None else bool(simd)
         n = _bodies(scene, q, m)
@@ -776,7 +775,7 @@ class Stepper:
 
     @t.setter
     def t(self, value) -> None:
-        t0 = _clock_origin("t", value, self._dt)
+        t0 = clock_origin("t", value, self._dt)
         with self._lock:
             self._t0 = t0
             self._k = 0.0

@@ -224,3 +224,17 @@ def _is_whole(value) -> bool:
         return bool(value == math.floor(value))
     except (OverflowError, ValueError, TypeError):  # inf, nan
         return False
+
+
+def clock_origin(name: str, value, dt: float) -> float:
+    """``value`` as the clock's origin (a finite number), or the error naming ``name``;
+    refused where ``value + dt == value`` in float64: the clock could not advance (the
+    ``t0`` of integrate() and the Stepper, the Stepper's ``t``)."""
+    t = float(as_float_array(name, value, shape=()))
+    if t + dt == t:
+        raise ValueError(
+            f"{name} = {t!r} and dt = {dt!r}: {name} + dt == {name} in float64 (times near "
+            f"{name} are {math.ulp(t):.3g} apart), so the clock could not advance. Measure "
+            f"the time from a later origin (subtract a reference time from {name}), or use a "
+            f"dt above {0.5 * math.ulp(t):.3g}")
+    return t

@@ -874,11 +874,11 @@ class CoupledStepper:
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, t0: float = 0.0) -> None:
         from liebody import _methods
-        from liebody._integrate import _clock_origin
+        from liebody._validate import clock_origin
 
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
-        t0 = _clock_origin("t0", t0, self._dt)
+        t0 = clock_origin("t0", t0, self._dt)
         self._method = _methods.get(scene.default_method if method is None else method)
         q, m = _initial(scene, q0, L0, omega0)
         self._run = _prepare(scene, self._method, q, m, self._dt)
@@ -906,9 +906,9 @@ class CoupledStepper:
 
     @t.setter
     def t(self, value) -> None:
-        from liebody._integrate import _clock_origin
+        from liebody._validate import clock_origin
 
-        self._t0 = _clock_origin("t", value, self._dt)
+        self._t0 = clock_origin("t", value, self._dt)
         self._k = 0
 
     @property

@@ -156,7 +156,6 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
         _check_phase,
         _check_potential,
         _check_torque,
-        _clock_origin,
         _first_row,
         _initial_momentum,
         _sample_times,
@@ -164,7 +163,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
         _step_count,
         as_controls,
     )
-    from liebody._validate import as_positive_float, as_positive_int
+    from liebody._validate import as_positive_float, as_positive_int, clock_origin
     from liebody._validate import as_unit_quaternion as _as_unit_q
     from liebody.scenes import Scene
 
@@ -183,7 +182,7 @@ def _validate(scene, q0, L0, omega0, dt, steps, t_end, method, save_every, diagn
     m = _initial_momentum(scene, L0, omega0)
     dt = as_positive_float("dt", dt)
     if t0 != 0.0:
-        t0 = _clock_origin("t0", t0, dt)  # (the local call's refusal and words)
+        t0 = clock_origin("t0", t0, dt)  # (the local call's refusal and words)
     n_steps = _step_count(dt, steps, t_end)
     save_every = n_steps if save_every is None else as_positive_int("save_every", save_every)
     if not isinstance(diagnostics, bool | np.bool_):
