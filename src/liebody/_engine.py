@@ -58,9 +58,18 @@ def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, f
     plan's stage table with ``params`` (the plan's, or a copy holding controls), the
     clock, the slice, the state and outputs, the user callback, the model's parameter
     row and shared block, the diagnostics' arrays and the model's token."""
-    return (plan.kinds, plan.axes, plan.coefs, plan.clock, params, plan.slots, merge_ends, h,
-            t0, step0, n_steps, save_every, final, state, ctl, q_out, m_out, torque_addr,
-            plan.first[1], plan.model_shared, dref, dmax, plan.token)
+    head, tail = one_body_arg_ends(plan, params, merge_ends, h, t0, step0, n_steps,
+                                   save_every, final, torque_addr, dref, dmax)
+    return (*head, state, ctl, q_out, m_out, *tail)
+
+
+def one_body_arg_ends(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final,
+                      torque_addr, dref, dmax) -> tuple[tuple, tuple]:
+    """:func:`one_body_args` before and after the state and outputs ``(state, ctl, q_out,
+    m_out)``: what a caller that repeats one call with new arrays keeps."""
+    return ((plan.kinds, plan.axes, plan.coefs, plan.clock, params, plan.slots, merge_ends, h,
+             t0, step0, n_steps, save_every, final),
+            (torque_addr, plan.first[1], plan.model_shared, dref, dmax, plan.token))
 
 
 def entry_point(runner, args):

@@ -32,12 +32,15 @@ import numpy as np
 
 from liebody import _methods
 from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distributed use them
+    CASIMIR_TOL,
+    ENERGY_TOL,
     FIRST_SLICE,
     MAX_MOMENTUM,
     QNORM_TOL,
     SLICE_SECONDS,
     USER_FIRST_SLICE,
     _end_potentials,
+    _energy_terms,
     _torque_is_finite,
     diagnostic_reference,
     diagnostics_dict,
@@ -47,6 +50,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     first_slice,
     input_sizes,
     interrupt_after_call,
+    one_body_arg_ends,
     one_body_args,
     raise_torque_error,
     time_slices,
@@ -56,9 +60,11 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
 )
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
+from liebody._methods import _REGISTRY
 from liebody._ordering import ROWS_AT_ONCE
 from liebody._validate import (
     F64,
+    UNIT_TOL,
     as_float_array,
     as_positive_float,
     as_positive_int,
@@ -92,6 +98,10 @@ SETUP_BYTES_PER_ROW = 1536
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
 
+#: a scene's prepared short calls (``_ShortCall``, keyed by the arguments that decided
+#: them), read directly on :func:`integrate`'s fast path, and how many a scene keeps
+_SHORT_CALLS = _MEMO + "short_calls"
+SHORT_CALLS_KEPT = 32
 #: sample times of short runs, kept read-only and shared: (n_steps, save_every, dt) -> t
 _SHORT_TIMES: dict = {}
 SHORT_TIMES_SAMPLES, SHORT_TIMES_KEPT = 64, 256
@@ -404,6 +414,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     per body: a body that fails stops (``failed_at[i]``, its later samples NaN, one
     warning for all) and the others finish.
     """
+    key = None
     if not isinstance(scene, Scene):
         if _is_coupled(scene):
             return _integrate_coupled(scene, q0, L0, omega0, dt, steps, t_end, method,
@@ -411,6 +422,20 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                                       threads, simd)
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
+    if (omega0 is None and t_end is None and progress is False and diagnostics is False
+            and threads is None and controls is None and simd is None
+            and dt.__class__ is float and steps.__class__ is int
+            and save_every.__class__ is int and t0.__class__ is float
+            and (method is None or method.__class__ is str)):
+        # a call whose arguments but the initial state were checked before (a loop)
+        key = (method, dt, steps, save_every, t0)
+        calls = scene.__dict__.get(_SHORT_CALLS)
+        if calls is not None:
+            call = calls.get(key)
+            if call is not None:
+                start = call.start(q0, L0)
+                if start is not None:
+                    return call.run(*start)
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
     if q_init.ndim != 1:
         _check_batch("q0", q_init)
@@ -476,8 +501,13 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         if t is None:
             t = _sample_times(n_steps, save_every, dt)
         if n_steps <= first and not (progress or diagnostics or method.sampled):
-            return _short_run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
-                              u, t0)
+            call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, u, t0, user)
+            if key is not None and u is None and (user is None or not user.conservative):
+                calls = _memo(scene, "short_calls", dict)
+                if len(calls) >= SHORT_CALLS_KEPT:
+                    calls.clear()
+                calls[key] = call
+            return call.run(q_init.tolist(), m_init.tolist(), m_init, q_init)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
@@ -796,35 +826,159 @@ def _drive(runner, plan, args: tuple):
     return out
 
 
-def _short_run(scene, method, q0, m0, dt, n_steps, save_every, t, model, u, t0) -> Trajectory:
-    """:meth:`_Run.stepped` for a run of one driver call without progress bar or
-    diagnostics (the fixed cost of control loops and optimisers, without a run object);
-    an interrupted, overflowing or failed run is handed to :class:`_Run`, which reports
-    it as a longer run would."""
-    plan = method.plan(scene, m0, dt)
-    params, q0l, m0l, state, ctl = _start(plan, q0, m0, u, save_every)
-    q_out, m_out = _outputs(q0, m0, t.shape[0])
-    args = one_body_args(plan, params, plan.merge_ends, dt, t0, 0.0, n_steps, save_every,
-                         True, state, ctl, q_out[1:], m_out[1:], model.address, _NO_DREF,
-                         _NO_DMAX)
-    try:
-        done, saved, status = _drive((_DRIVERS or _drivers())[False][plan.family], plan, args)
-    except KeyboardInterrupt:
-        done = saved = 0
-        status = None
-    if status == S.STATUS_OK:
-        traj = _completed(scene, method, dt, plan.info, t, t0, q_out, m_out, None, q0l, m0l,
-                          state, stacklevel=5)
-        if traj is not None:
-            return traj
-    run = _Run(scene, method, q0, m0, dt, n_steps, save_every, t, model, False, False, u, t0,
-               (q_out, m_out))
-    run.info = dict(plan.info)
-    if status is None:
-        run._interrupted(1, 0)
-    if status == S.STATUS_OK:
-        return run._overflowed()
-    return run._failed(status, done, saved, state)
+class _ShortCall:
+    """A one-body run of one driver call, without progress bar or diagnostics (the fixed
+    cost of control loops and optimisers): :meth:`_Run.stepped` without a run object, for
+    one scene, method, step, step count, save interval, start time, model and controls.
+
+    Without controls and without a user torque whose potential is called, the call is
+    kept on the scene (frozen) under the arguments that decided it (:func:`integrate`'s
+    fast path): a repeated call then checks its initial state only (:meth:`start`). An
+    interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it as
+    a longer run would."""
+
+    __slots__ = ("casimir", "ctl", "dt", "energy", "fields", "keep", "last", "method", "model",
+                 "moments", "n_steps", "rotor", "save_every", "scene", "t", "t0", "times", "u",
+                 "user")
+
+    def __init__(self, scene, method, dt: float, n_steps: int, save_every: int,
+                 t: np.ndarray, model, u, t0: float, user) -> None:
+        self.scene, self.method, self.dt, self.t0 = scene, method, dt, t0
+        self.n_steps, self.save_every, self.t = n_steps, save_every, t
+        self.times = t if t0 == 0.0 else _read_only(t0 + t)
+        self.model, self.u, self.user = model, u, user
+        self.fields = Trajectory._fields_of(scene, method, dt)
+        self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
+        self.ctl = ctl = _CTL.copy()
+        ctl[0] = save_every
+        # the end-of-run check in scalar arithmetic (:func:`_one_body_problems`'s rules)
+        # where it needs no potential; else that function
+        caps, self.moments, self.rotor = _energy_terms(scene)
+        self.casimir = method.keeps_casimir and not caps.torque
+        self.energy = (method.symplectic or method.keeps_energy) and caps.conservative
+        self.keep = not (caps.torque and self.energy) and not (
+            caps.dissipative and not caps.torque)
+
+    def start(self, q0, L0) -> tuple | None:
+        """``(q0, L0)`` as lists when they take the common forms (a float64 ``(4,)`` unit
+        quaternion or the default ``q0``, a float64 ``(3,)`` ``L0`` in range: the rules of
+        :func:`liebody._validate.as_unit_quaternion` and :func:`_initial_momentum`, with
+        the same numbers) and the method is still the registry's; else ``None``, and the
+        general path checks them and says why."""
+        if q0.__class__ is np.ndarray:
+            if q0.shape != (4,) or q0.dtype is not F64:
+                return None
+            ql = q0.tolist()
+            w, x, y, z = ql
+            n = math.sqrt(w * w + x * x + y * y + z * z)
+            if n != 1.0:
+                if not abs(n - 1.0) <= UNIT_TOL:
+                    return None
+                ql = [w / n, x / n, y / n, z / n]
+        elif q0 is _DEFAULT_Q0:
+            ql = [1.0, 0.0, 0.0, 0.0]
+        else:
+            return None
+        if L0.__class__ is not np.ndarray or L0.shape != (3,) or L0.dtype is not F64:
+            return None
+        ml = L0.tolist()
+        m1, m2, m3 = ml
+        if not (abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM):
+            return None
+        method = self.method
+        if _REGISTRY.get(method.name) is not method:
+            return None
+        return ql, ml, L0, None, False
+
+    def run(self, ql: list, ml: list, m0: np.ndarray, q0: np.ndarray | None = None,
+            owned: bool = True) -> Trajectory:
+        """The run from ``q0`` and ``m0`` (``q0``: made from the list ``ql`` when not
+        given; ``owned``: whether ``m0`` is the run's own copy, else the caller's, which a
+        new plan must not keep); its warnings point at :func:`integrate`'s caller."""
+        scene, method, dt, u = self.scene, self.method, self.dt, self.u
+        user = self.user
+        if user is not None:  # the torque at the initial state, in one compiled call
+            model = self.model
+            if q0 is None:
+                q0 = np.array(ql)
+            if not (_INITIAL_OK[0] if _INITIAL_OK else _initial_ok())(
+                    model.address, self.t0, q0, m0, _NO_U if u is None else u, user.row,
+                    user.promise):
+                _check_torque(model, q0, m0, u, self.t0, orientation_only=user.promise,
+                              compiled=False)
+        key = m0.tobytes()
+        last = self.last
+        if last is not None and last[0] == key:
+            _, plan, head, tail, fn = last
+        else:
+            plan = method.plan(scene, m0 if owned else m0.copy(), dt)
+            params = plan.first[0]
+            if u is not None:
+                params = params.copy()
+                write_controls(params, u)
+            head, tail = one_body_arg_ends(plan, params, plan.merge_ends, dt, self.t0, 0.0,
+                                           self.n_steps, self.save_every, True,
+                                           self.model.address, _NO_DREF, _NO_DMAX)
+            fn = None
+            self.last = (key, plan, head, tail, fn)
+        state = np.array(ql + ml)
+        ctl = self.ctl.copy()
+        n = self.t.shape[0]
+        q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
+        q_out[0] = ql
+        m_out[0] = m0
+        args = (*head, state, ctl, q_out[1:], m_out[1:], *tail)
+        try:
+            if fn is not None:
+                done, saved, status = fn(*args)
+            else:  # numba's dispatch, then its entry point (:func:`_drive`)
+                runner = (_DRIVERS or _drivers())[False][plan.family]
+                done, saved, status = _drive(runner, plan, args)
+                fn = plan.entries.get(runner)
+                if fn is not None:
+                    self.last = (key, plan, head, tail, fn)
+        except KeyboardInterrupt:
+            done = saved = 0
+            status = None
+        if status == S.STATUS_OK:
+            end = state.tolist()
+            w, x, y, z, b1, b2, b3 = end
+            if max(abs(b1), abs(b2), abs(b3)) <= MAX_MOMENTUM:
+                q_out.setflags(write=False)  # ours: no view
+                m_out.setflags(write=False)
+                traj = Trajectory._from_fields(self.fields, self.times, q_out, m_out,
+                                               plan.info.copy())  # (the plan's is shared)
+                if self.keep and abs(math.hypot(w, x, y, z) - 1.0) <= QNORM_TOL:
+                    a1, a2, a3 = ml
+                    if not self.casimir or abs(math.hypot(b1, b2, b3) - math.hypot(
+                            a1, a2, a3)) <= CASIMIR_TOL * math.hypot(a1, a2, a3):
+                        if not self.energy:
+                            return traj
+                        I1, I2, I3 = self.moments
+                        if self.rotor is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
+                            l1, l2, l3 = self.rotor
+                            a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3
+                            b1, b2, b3 = b1 - l1, b2 - l2, b3 - l3
+                        T0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
+                        T1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
+                        if not T0 > 0 or abs(T1 - T0) <= ENERGY_TOL * T0:
+                            return traj
+                # a problem, or a check that needs the potential: the words
+                return warn_invariants(traj, 4, (ql, end[:4], ml, end[4:]))
+        run = _Run(scene, method, np.array(ql) if q0 is None else q0, m0, dt, self.n_steps,
+                   self.save_every, self.t, self.model, False, False, u, self.t0,
+                   (q_out, m_out))
+        run.info = dict(plan.info)
+        if status is None:
+            run._interrupted(1, 0)
+        if status == S.STATUS_OK:
+            return run._overflowed()
+        return run._failed(status, done, saved, state)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
