@@ -425,7 +425,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
     if (omega0 is None and t_end is None and progress is False and diagnostics is False
             and threads is None and controls is None and simd is None
             and dt.__class__ is float and steps.__class__ is int
-            and save_every.__class__ is int and t0.__class__ is float
+            and (save_every is None or save_every.__class__ is int) and t0.__class__ is float
             and (method is None or method.__class__ is str)):
         # a call whose arguments but the initial state were checked before (a loop)
         key = (method, dt, steps, save_every, t0)

@@ -30,17 +30,19 @@ def _general(scene, q0, L0, **kw) -> liebody.Trajectory:
 
 @pytest.mark.parametrize("method", ["splitting2", "no_squish", "splitting4", "rk4", "dmv4",
                                     "rattle", "saba2"])
-@pytest.mark.parametrize("t0", [0.0, 3.5])
-def test_repeated_calls_equal_the_general_path(hlw, method, t0):
+@pytest.mark.parametrize("t0, save_every", [(0.0, 1), (3.5, 1), (0.0, None), (1.0, 2)])
+def test_repeated_calls_equal_the_general_path(hlw, method, t0, save_every):
     scene, L0 = hlw
     q0 = liebody.quaternion.random(rng=2)
-    kw = dict(dt=0.01, steps=3, method=method, t0=t0)
+    kw = dict(dt=0.01, steps=3, method=method, t0=t0, save_every=save_every)
     first = liebody.integrate(scene, q0=q0, L0=L0, **kw)
     for _ in range(3):
         again = liebody.integrate(scene, q0=q0, L0=L0, **kw)
         _same(again, first)
+    assert len(vars(scene)["_memo_short_calls"]) == 1  # (the repeated path was taken)
     _same(again, _general(scene, q0, L0, **kw))
-    np.testing.assert_array_equal(again.t, t0 + 0.01 * np.arange(4))
+    kept = [0, 1, 2, 3] if save_every == 1 else [0, 2, 3] if save_every == 2 else [0, 3]
+    np.testing.assert_array_equal(again.t, t0 + 0.01 * np.array(kept, dtype=float))
     # a new initial state: its own run, as a first call from it gives
     L1 = L0 * 1.01
     _same(liebody.integrate(scene, q0=q0, L0=L1, **kw), _general(scene, q0, L1, **kw))
