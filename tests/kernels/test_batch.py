@@ -28,7 +28,7 @@ from liebody._kernels.batch import (
     simd_supports,
 )
 from liebody._kernels.batch_drivers import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
-from liebody._kernels.trig import sincos_array
+from liebody._kernels.trig import sincos_array, sincos_plain_array
 
 JIT = os.environ.get("NUMBA_DISABLE_JIT") != "1"
 EPS = np.finfo(float).eps
@@ -473,6 +473,20 @@ def test_fast_sincos_is_within_a_few_ulps_of_libm(lo, hi, limit):
     if first.any():
         ref = np.array([-2.0 * math.sin(0.5 * v) ** 2 for v in x[first]])
         assert np.max(np.abs(cm[first] - ref) / np.abs(ref)) < 4 * EPS
+
+
+@pytest.mark.kernel
+@pytest.mark.parametrize(("lo", "hi", "limit"), [
+    (0.0, math.pi / 4, 1.0), (0.0, 100.0, 2.0), (100.0, 1e6, 3.0), (1e6, 1e9, 4.0)])
+def test_plain_sincos_is_within_a_few_ulps_of_libm(lo, hi, limit):
+    """The pair without normalisation (a circular orbit's position): as accurate."""
+    rng = np.random.default_rng(8)
+    x = rng.uniform(lo, hi, 20_000) * rng.choice([-1.0, 1.0], 20_000)
+    s, c = np.empty_like(x), np.empty_like(x)
+    sincos_plain_array(x, s, c)
+    assert _ulps(s, np.array([math.sin(v) for v in x])) <= limit
+    assert _ulps(c, np.array([math.cos(v) for v in x])) <= limit
+    assert np.max(np.abs(np.hypot(s, c) - 1.0)) < 4 * EPS
 
 
 @pytest.mark.kernel

@@ -244,6 +244,18 @@ def sincos(x):
     return sx, cx, cmx
 
 
+@jit(inline="always")
+def sincos_plain(x):
+    """``(sin x, cos x)`` for any ``x``: :func:`sincos`'s reduction and polynomials in
+    Estrin's scheme (:func:`sincos_turn`), without the normalisation of the pair (within
+    a few ulps of the correctly rounded values; the pair's norm is off 1 by as much). For
+    a value that is not a turn (a circular orbit's position): a shorter chain."""
+    k, r = _reduce(x)
+    s, c, _ = sincos_turn(r)
+    _, sx, cx = _quadrant(k, s, c)
+    return sx, cx
+
+
 @jit
 def sincos_array(x, s, c, cm, small):
     """:func:`sincos` (or :func:`sincos_small`) of every element of ``x`` (tests)."""
@@ -252,3 +264,10 @@ def sincos_array(x, s, c, cm, small):
             s[i], c[i], cm[i] = sincos_small(x[i])
         else:
             s[i], c[i], cm[i] = sincos(x[i])
+
+
+@jit
+def sincos_plain_array(x, s, c):
+    """:func:`sincos_plain` of every element of ``x`` (tests)."""
+    for i in range(x.shape[0]):
+        s[i], c[i] = sincos_plain(x[i])

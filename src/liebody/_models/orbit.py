@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from liebody._kernels._jit import jit
-from liebody._kernels.trig import sincos
+from liebody._kernels.trig import sincos_plain
 
 #: the kinds of orbit (a row's first number)
 KEPLER = 0
@@ -107,9 +107,9 @@ def eccentric_anomaly(M, e):
 @jit(inline="always")
 def _circular_position(orb, k, t):
     """A circular orbit's position (``e = 0``, ``E = M``): ``sin M`` and ``cos M`` by one
-    polynomial call (``trig.sincos``: Cody–Waite reduction, a few ulps) instead of two libm
-    calls, a third of the cost."""
-    s, c, _ = sincos(orb[k + 5] + orb[k + 2] * t)
+    polynomial call (``trig.sincos_plain``: Cody–Waite reduction, a few ulps, the pair not
+    normalised: a position, not a turn) instead of two libm calls, a third of the cost."""
+    s, c = sincos_plain(orb[k + 5] + orb[k + 2] * t)
     u, v = orb[k + 3] * c, orb[k + 4] * s
     return (u * orb[k + 6] + v * orb[k + 9], u * orb[k + 7] + v * orb[k + 10],
             u * orb[k + 8] + v * orb[k + 11])
