@@ -645,7 +645,7 @@ class TorqueBody(Scene):
         if rows.shape[0] > 1 and (q.ndim < 2 or q.shape[0] != rows.shape[0]):
             raise ValueError(f"q must have the body axis first, (N, ..., 4) with N = "
                              f"{rows.shape[0]} (one per row of params), got shape {q.shape}")
-        out = np.empty(q.shape[:-1])
+        out = None if rows.shape[0] == 1 else np.empty(q.shape[:-1])
         for i in range(rows.shape[0]):  # (one row for every body, or body i's)
             qi, ti = (q, t) if rows.shape[0] == 1 else (q[i], t[i])
             p = rows[i]

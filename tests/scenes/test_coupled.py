@@ -336,3 +336,17 @@ def test_a_torque_that_fails_stops_the_run_naming_the_body_and_keeping_the_sampl
     assert info.value.trajectory.failed_at == 6 * 0.1
     tr = info.value.trajectory
     assert tr.t[-1] <= 0.5 + 1e-12 and len(tr.t) >= 5 and np.isfinite(tr.q).all()
+
+
+def test_scenes_that_share_a_torque_share_its_callback():
+    """The C callback of a user's collective torque is compiled once per torque, not once
+    per scene (a Monte Carlo that builds a scene per case would compile and keep one
+    each), and the runs of the scenes are the same."""
+    a, q0, L0 = _system(seed=3)
+    b = CoupledBodies(liebody.RigidBody.batch(a.moments, check_triangle=False),
+                      heisenberg_torque, heisenberg_potential, params=a.params)
+    assert a.address == b.address
+    ra = liebody.integrate(a, q0=q0, L0=L0, dt=0.05, steps=20)
+    rb = liebody.integrate(b, q0=q0, L0=L0, dt=0.05, steps=20)
+    np.testing.assert_array_equal(ra.q, rb.q)
+    np.testing.assert_array_equal(ra.L, rb.L)

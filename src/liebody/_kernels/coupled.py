@@ -59,6 +59,8 @@ COUPLED_SIG = types.void(types.float64, types.CPointer(types.float64),
 #: address -> adapter (kept alive while the driver may call it; the uncompiled kernels
 #: call the Python function by its id)
 _ADAPTERS: dict = {}
+#: id(user torque) -> (the torque, its callback's address): compiled once per torque
+_BY_TORQUE: dict = {}
 
 
 def adapt_coupled_torque(user) -> int:
@@ -67,6 +69,9 @@ def adapt_coupled_torque(user) -> int:
     its address. A callback cannot raise: a torque that raises fills ``out`` with NaN,
     so the driver stops at that step and the Python side calls the torque again to
     raise its error."""
+    kept = _BY_TORQUE.get(id(user))
+    if kept is not None and kept[0] is user:
+        return kept[1]  # (one callback per torque: scenes that share it share it)
     import numpy as np
 
     def evaluate(t, q, L, p, out):
@@ -77,6 +82,7 @@ def adapt_coupled_torque(user) -> int:
 
     if config.DISABLE_JIT:
         _ADAPTERS[id(evaluate)] = evaluate
+        _BY_TORQUE[id(user)] = (user, id(evaluate))
         return id(evaluate)
 
     from numba import carray, cfunc, njit
@@ -89,6 +95,7 @@ def adapt_coupled_torque(user) -> int:
 
     adapter = cfunc(COUPLED_SIG)(body)
     _ADAPTERS[adapter.address] = adapter
+    _BY_TORQUE[id(user)] = (user, adapter.address)
     return adapter.address
 
 
