@@ -526,18 +526,29 @@ class Stepper:
                 None, done, t0)
         raise RuntimeError(f"{name}: status {status} from the driver")  # pragma: no cover
 
-    def _advance(self, n: int) -> None:
+    def _advance(self, n: int, keep: np.ndarray | None = None, carry: bool = False) -> None:
         """``n`` steps of the batch driver of each group (for one body, the one body),
-        chunks of bodies over threads, in slices of about :data:`~liebody._engine.SLICE_SECONDS`."""
+        chunks of bodies over threads, in slices of about :data:`~liebody._engine.SLICE_SECONDS`.
+
+        Every body's last step is unmerged (``final``), but for the bodies ``keep`` (a
+        mask over the bodies): their last stage runs the next step's first, which the
+        next call, made with ``carry``, continues from (the driver's ``ctl`` of each body
+        holds it; without ``carry`` a call starts every body on a full step). Ctrl-C
+        completes a merged step of the call's middle for every body, not one left at the
+        call's end by ``keep``: the caller completes that (``WheelStepper``)."""
         work = self._work
         call = {"n": n, "steps0": self._steps, "k0": self._k, "issued": [],
                 "starts": [g["state"].copy() for g in self._groups],
                 "before": [g["status"].copy() for g in self._groups],
-                "d0": [g["done"].copy() for g in self._groups], "pool": None}
+                "d0": [g["done"].copy() for g in self._groups], "pool": None,
+                "last": keep is None}
         for g in self._groups:
             ctl = g["ctl"]
             ctl[:, 0] = n  # save once, after the n-th step
-            ctl[:, 1] = 0
+            if keep is not None:  # never: the call ends mid-step (merged), unsaved
+                ctl[keep[g["idx"]], 0] = n + 1
+            if not carry:
+                ctl[:, 1] = 0
             g["saved"][:] = 0
         if len(work) > 1:
             call["pool"] = self._thread_pool()
@@ -546,7 +557,8 @@ class Stepper:
             done, size = 0, self._size
             while done < n:
                 k = min(size, n - done)
-                final = done + k == n
+                # (with keep, the countdown ends the other bodies unmerged at the n-th step)
+                final = done + k == n and call["last"]
                 call["issued"].append((done, k, final))
                 start = time.perf_counter()
                 self._slice(call, done, k, final)

@@ -532,6 +532,10 @@ class WheelStepper(Stepper):
 
     def _plan(self, momentum=None) -> None:
         super()._plan(momentum)
+        # whether an ensemble's pieces may end some bodies merged: a method that merges
+        # end stages, on the scalar drivers (their countdown and merge are per body)
+        self._keeps = self._n is not None and (
+            any(g["merge"] for g in self._groups) and not any(g["simd"] for g in self._groups))
         if getattr(self, "_wheels", None) is not None:
             self._write()
 
@@ -543,13 +547,13 @@ class WheelStepper(Stepper):
 
         with self._lock:
             n = as_positive_int("n", n)
+            if self._n is not None:
+                self._step_bodies(n)
+                return
             done = 0
             while done < n:
                 before = self._wheels.copy()
-                # an ensemble's failed bodies are skipped: their wheels are held too
-                gone = None if self._n is None else self._status != S.STATUS_OK
-                u = self._wu if gone is None else np.where(gone[:, None], 0.0, self._wu)
-                length, changed = self._wheels.segment(u, self._k, n - done)
+                length, changed = self._wheels.segment(self._wu, self._k, n - done)
                 if changed.any():
                     self._write(changed)
                 try:
@@ -558,22 +562,126 @@ class WheelStepper(Stepper):
                     if exc.step == 0:
                         self._wheels = before
                         self._write()
-                    raise
+                    m = done + exc.step  # (the steps of this call, not of its piece)
+                    raise IntegrationInterrupted(
+                        f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the "
+                        f"stepper is left after them, as step({m:,}) would have left it (t "
+                        f"= {self.t:.6g}, steps = {self._steps:,})", None, m, self.t) from None
                 except BaseException:
                     self._wheels = before
                     self._write()
                     raise
-                if gone is not None and np.any((self._status != S.STATUS_OK) & ~gone):
-                    self._hold((self._status != S.STATUS_OK) & ~gone, before, length)
                 done += length
 
-    def _hold(self, fresh: np.ndarray, before: WheelState, length: int) -> None:
-        """Bodies ``fresh`` failed in the last piece of ``length`` steps and were left at
-        their state before it: so are their wheels (held there, their records of the
-        piece dropped)."""
+    def _step_bodies(self, n: int) -> None:
+        """An ensemble's ``step(n)``: the pieces of :meth:`WheelState.segment` (cut where
+        any body's rates change), each body's last step of a piece unmerged only where its
+        own rates change after it (where its one-body stepper cuts the call) or at the
+        call's end; the others go on merged into the next piece, whose stage rows are
+        theirs unchanged. So every body gets its one-body stepper's numbers. A body that
+        fails is left at its state before the call, its wheels too (:meth:`_hold`)."""
+        if self._stale:
+            self._plan()
+        self._gather()
+        steps0 = self._steps
+        start = {"k": self._k, "wheels": self._wheels.copy(), "state": self._state.copy()}
+        merges = self._keeps
+        for g in self._groups:
+            g["ctl"][:, 1] = 0  # every body starts the call on a full step
+        handled = self._status != S.STATUS_OK  # failed bodies, whose wheels are held
+        u = np.where(handled[:, None], 0.0, self._wu)
+        snap = (self._k, start["wheels"])  # the wheels before the piece at step count k
+        ahead = None  # the next piece, planned with this one: (wheels, length, changed)
+        try:
+            while self._steps - steps0 < n:
+                left = n - (self._steps - steps0)
+                if ahead is not None:  # (snap: a state no longer changed)
+                    snap = (self._k, self._wheels)
+                    self._wheels, length, changed = ahead
+                    ahead = None
+                else:
+                    if self._k != snap[0]:
+                        snap = (self._k, self._wheels.copy())
+                    length, changed = self._wheels.segment(u, self._k, left)
+                if changed.any():
+                    self._write(changed)
+                keep = None
+                if merges and length < left:  # the bodies the next piece re-anchors end
+                    nxt = self._wheels.copy()  # this one unmerged; the others go on merged
+                    ahead = (nxt, *nxt.segment(u, self._k + length, left - length))
+                    keep = None if ahead[2].all() else ~ahead[2]
+                self._advance(length, keep, carry=True)
+                if self._fail(handled, start):  # their wheels held: plan again
+                    u = np.where(handled[:, None], 0.0, self._wu)
+                    ahead = None
+        except KeyboardInterrupt:  # (IntegrationInterrupted too)
+            self._interrupted(n, steps0, start, snap, handled)
+        except BaseException:
+            if self._k == snap[0]:
+                self._wheels = snap[1]
+                self._write()
+            raise
+
+    def _pending(self) -> bool:
+        """Whether a healthy body's last step ran the next one's first stage (merged)."""
+        return any(bool(np.any(g["ctl"][:, 1][g["status"] == S.STATUS_OK]))
+                   for g in self._groups)
+
+    def _interrupted(self, n: int, steps0: int, start: dict, snap: tuple,
+                     handled: np.ndarray):
+        """Ctrl-C during an ensemble's ``step(n)``: the wheels of the piece not begun
+        dropped, the failures of the last piece taken, a step left merged at a piece's end
+        completed (the call's next step, unmerged for every body), then raise. Every part
+        can be repeated (a second Ctrl-C runs it again)."""
+        from liebody.errors import IntegrationInterrupted
+
+        while True:
+            try:
+                if self._k == snap[0]:  # no step of this piece: its wheels undone
+                    self._wheels = snap[1].copy()
+                    self._write()
+                self._fail(handled, start)
+                if not self._pending():
+                    break
+                # the bodies kept merged at the end of the last piece (the others ended it
+                # unmerged): the next piece's first step, every body unmerged
+                snap = (self._k, self._wheels.copy())
+                u = np.where(handled[:, None], 0.0, self._wu)
+                self._wheels.segment(u, self._k, n - (self._steps - steps0))
+                self._write()
+                self._advance(1, None, carry=True)
+            except KeyboardInterrupt:
+                continue
+        m = self._steps - steps0
+        raise IntegrationInterrupted(
+            f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
+            f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
+            f"= {self._steps:,})", None, m, self.t) from None
+
+    def _fail(self, handled: np.ndarray, start: dict) -> bool:
+        """The bodies that failed in this call and are not yet ``handled``: left at their
+        state before the call (they may have failed after a merged step), their wheels
+        too; ``handled`` updated in place. Whether there were any. Repeatable."""
+        fresh = (self._status != S.STATUS_OK) & ~handled
+        if not fresh.any():
+            return False
+        self._gather()
+        self._state[fresh] = start["state"][fresh]
+        for g in self._groups:
+            if not g["whole"]:
+                sel = fresh[g["idx"]]
+                g["state"][sel] = start["state"][g["idx"][sel]]
+        self._hold(fresh, start["wheels"], start["k"])
+        handled |= fresh
+        return True
+
+    def _hold(self, fresh: np.ndarray, before: WheelState, k: float) -> None:
+        """Bodies ``fresh`` failed and were left at their state at step count ``k``, when
+        the wheels were ``before``: so are their wheels (held there, their records since
+        then dropped). Repeatable."""
         w = self._wheels
         h = w.h_a.copy()
-        h[fresh] = before.now(self._k - length)[fresh]
+        h[fresh] = before.now(k)[fresh]
         w._anchor(fresh, h, self._k, np.zeros_like(w.rate))
         for name in ("landing", "at_speed", "at_torque"):
             getattr(w, name)[fresh] = getattr(before, name)[fresh]

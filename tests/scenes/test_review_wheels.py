@@ -126,12 +126,6 @@ def test_trajectory_omega_is_the_bodys_rate_with_the_wheels_subtracted():
         np.testing.assert_allclose(tr.body(i).omega, want, rtol=0, atol=1e-15)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "an ensemble WheelStepper cuts every body's call where any body's wheel reaches its "
-    "speed limit, and the base Stepper's ensemble call ends every body unmerged at a cut "
-    "(final), so with a method that merges end stages (splitting2) the other bodies differ "
-    "from their one-body steppers by round-off; a fix needs a non-final ensemble call in "
-    "_stepper.py (per-body cut or carried merge)"))
 def test_an_ensemble_steppers_bodies_equal_their_one_body_steppers_through_saturations():
     """simd=False: every body of an ensemble Stepper gets exactly the numbers of its
     one-body Stepper, also when another body's wheel lands on its speed limit inside a
