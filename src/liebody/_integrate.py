@@ -432,10 +432,13 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         calls = scene.__dict__.get(_SHORT_CALLS)
         if calls is not None:
             call = calls.get(key)
-            if call is not None:
+            # (t0 = -0.0 equals 0.0 and hashes alike: the drivers and the torque get the
+            # caller's, so a call kept for the other zero is not that call)
+            if call is not None and (t0 is call.t0 or t0 != 0.0 or math.copysign(
+                    1.0, t0) == math.copysign(1.0, call.t0)):
                 start = call.start(q0, L0)
                 if start is not None:
-                    return call.run(*start)
+                    return call.run(scene, *start)
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
     if q_init.ndim != 1:
         _check_batch("q0", q_init)
@@ -507,7 +510,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                 if len(calls) >= SHORT_CALLS_KEPT:
                     calls.clear()
                 calls[key] = call
-            return call.run(q_init.tolist(), m_init.tolist(), m_init, q_init)
+            return call.run(scene, q_init.tolist(), m_init.tolist(), m_init, q_init)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
@@ -829,25 +832,31 @@ def _drive(runner, plan, args: tuple):
 class _ShortCall:
     """A one-body run of one driver call, without progress bar or diagnostics (the fixed
     cost of control loops and optimisers): :meth:`_Run.stepped` without a run object, for
-    one scene, method, step, step count, save interval, start time, model and controls.
+    one method, step, step count, save interval, start time, model and controls.
 
     Without controls and without a user torque whose potential is called, the call is
     kept on the scene (frozen) under the arguments that decided it (:func:`integrate`'s
-    fast path): a repeated call then checks its initial state only (:meth:`start`). An
-    interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it as
-    a longer run would."""
+    fast path): a repeated call then checks its initial state only (:meth:`start`). The
+    call holds no reference to its scene (:meth:`run` is given it): kept on the scene, it
+    would make a cycle that frees the scene only when the cyclic garbage collector runs.
+    An interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it
+    as a longer run would."""
 
     __slots__ = ("casimir", "ctl", "dt", "energy", "fields", "keep", "last", "method", "model",
-                 "moments", "n_steps", "rotor", "save_every", "scene", "t", "t0", "times", "u",
-                 "user")
+                 "moments", "n_steps", "rotor", "save_every", "t", "t0", "times", "u", "user")
 
     def __init__(self, scene, method, dt: float, n_steps: int, save_every: int,
                  t: np.ndarray, model, u, t0: float, user) -> None:
-        self.scene, self.method, self.dt, self.t0 = scene, method, dt, t0
+        self.method, self.dt, self.t0 = method, dt, t0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
-        self.times = t if t0 == 0.0 else _read_only(t0 + t)
+        # the sample times every trajectory of the call shares: its own read-only array
+        # (the cache of short runs' times holds read-only ones; a longer run's are
+        # writeable) behind a view, which numpy refuses to make writeable again
+        times = t0 + t if t0 != 0.0 or t.flags.writeable else t
+        times.flags.writeable = False
+        self.times = times.view()
         self.model, self.u, self.user = model, u, user
-        self.fields = Trajectory._fields_of(scene, method, dt)
+        self.fields = None  # the trajectories' other fields, from the first one
         self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
         self.ctl = ctl = _CTL.copy()
         ctl[0] = save_every
@@ -861,11 +870,13 @@ class _ShortCall:
 
     def start(self, q0, L0) -> tuple | None:
         """``(q0, L0)`` as lists when they take the common forms (a float64 ``(4,)`` unit
-        quaternion or the default ``q0``, a float64 ``(3,)`` ``L0`` in range: the rules of
+        quaternion, four floats or ints in a list or tuple, or the default ``q0``; a
+        float64 ``(3,)`` ``L0`` in range, or three floats or ints: the rules of
         :func:`liebody._validate.as_unit_quaternion` and :func:`_initial_momentum`, with
         the same numbers) and the method is still the registry's; else ``None``, and the
         general path checks them and says why."""
-        if q0.__class__ is np.ndarray:
+        cls = q0.__class__
+        if cls is np.ndarray:
             if q0.shape != (4,) or q0.dtype is not F64:
                 return None
             ql = q0.tolist()
@@ -877,25 +888,50 @@ class _ShortCall:
                 ql = [w / n, x / n, y / n, z / n]
         elif q0 is _DEFAULT_Q0:
             ql = [1.0, 0.0, 0.0, 0.0]
+        elif (cls is list or cls is tuple) and len(q0) == 4 and all(
+                v.__class__ is float or v.__class__ is int for v in q0):
+            try:
+                w, x, y, z = (float(v) for v in q0)
+            except OverflowError:  # (an int beyond float64: the general path says so)
+                return None
+            n = math.sqrt(w * w + x * x + y * y + z * z)
+            if not abs(n - 1.0) <= UNIT_TOL:
+                return None
+            ql = [w / n, x / n, y / n, z / n]  # (as_unit_quaternion divides these always)
         else:
             return None
-        if L0.__class__ is not np.ndarray or L0.shape != (3,) or L0.dtype is not F64:
+        cls = L0.__class__
+        if cls is np.ndarray:
+            if L0.shape != (3,) or L0.dtype is not F64:
+                return None
+            ml = L0.tolist()
+            m1, m2, m3 = ml
+            owned = False
+        elif (cls is list or cls is tuple) and len(L0) == 3 and all(
+                v.__class__ is float or v.__class__ is int for v in L0):
+            try:
+                m1, m2, m3 = ml = [float(v) for v in L0]
+            except OverflowError:
+                return None
+            owned = True
+        else:
             return None
-        ml = L0.tolist()
-        m1, m2, m3 = ml
         if not (abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM):
             return None
         method = self.method
         if _REGISTRY.get(method.name) is not method:
             return None
-        return ql, ml, L0, None, False
+        if owned:
+            L0 = np.array(ml)
+        return ql, ml, L0, None, owned
 
-    def run(self, ql: list, ml: list, m0: np.ndarray, q0: np.ndarray | None = None,
+    def run(self, scene, ql: list, ml: list, m0: np.ndarray, q0: np.ndarray | None = None,
             owned: bool = True) -> Trajectory:
-        """The run from ``q0`` and ``m0`` (``q0``: made from the list ``ql`` when not
-        given; ``owned``: whether ``m0`` is the run's own copy, else the caller's, which a
-        new plan must not keep); its warnings point at :func:`integrate`'s caller."""
-        scene, method, dt, u = self.scene, self.method, self.dt, self.u
+        """The run of ``scene`` from ``q0`` and ``m0`` (``q0``: made from the list ``ql``
+        when not given; ``owned``: whether ``m0`` is the run's own copy, else the caller's,
+        which a new plan must not keep); its warnings point at :func:`integrate`'s
+        caller."""
+        method, dt, u = self.method, self.dt, self.u
         user = self.user
         if user is not None:  # the torque at the initial state, in one compiled call
             model = self.model
@@ -946,8 +982,24 @@ class _ShortCall:
             if max(abs(b1), abs(b2), abs(b3)) <= MAX_MOMENTUM:
                 q_out.setflags(write=False)  # ours: no view
                 m_out.setflags(write=False)
-                traj = Trajectory._from_fields(self.fields, self.times, q_out, m_out,
-                                               plan.info.copy())  # (the plan's is shared)
+                fields = self.fields
+                if fields is None:  # the first run: the template of the next ones
+                    traj = Trajectory._complete(self.times, q_out, m_out, scene, method, dt,
+                                                plan.info.copy(), None)
+                    # (every key, in order, in a table the next ones' dicts clone at
+                    # once; the scene's None: the call holds no reference to it)
+                    self.fields = fields = {**traj.__dict__}
+                    for name in ("t", "q", "L", "info", "scene"):
+                        fields[name] = None
+                else:  # Trajectory._from_fields, with the scene
+                    traj = object.__new__(Trajectory)
+                    d = traj.__dict__
+                    d.update(fields)
+                    d["t"] = self.times
+                    d["q"] = q_out
+                    d["L"] = m_out
+                    d["scene"] = scene
+                    d["info"] = plan.info.copy()  # (the plan's is shared)
                 if self.keep and abs(math.hypot(w, x, y, z) - 1.0) <= QNORM_TOL:
                     a1, a2, a3 = ml
                     if not self.casimir or abs(math.hypot(b1, b2, b3) - math.hypot(
@@ -973,6 +1025,13 @@ class _ShortCall:
             run._interrupted(1, 0)
         if status == S.STATUS_OK:
             return run._overflowed()
+        if status == S.STATUS_NONFINITE:
+            # :meth:`_Run._failed`'s words, said a frame nearer :func:`integrate`'s caller
+            # (its warning points there); a user torque found failing is left to it
+            t_start, t_fail = failed_step_times(self.t0, done, dt)
+            if self.model.function is None or _torque_is_finite(
+                    self.model, state, (t_start, t_start + 0.5 * dt, t_start + dt), u):
+                return run._failed_nonfinite(1 + saved, done, t_start, t_fail)
         return run._failed(status, done, saved, state)
 
 
