@@ -927,16 +927,17 @@ class _ShortCall:
 
     def run(self, scene, ql: list, ml: list, m0: np.ndarray, q0: np.ndarray | None = None,
             owned: bool = True) -> Trajectory:
-        """The run of ``scene`` from ``q0`` and ``m0`` (``q0``: made from the list ``ql``
-        when not given; ``owned``: whether ``m0`` is the run's own copy, else the caller's,
+        """The run of ``scene`` from ``q0`` and ``m0`` (``q0``: given by a first call,
+        whose user torque :func:`integrate` checked; a repeated call's is made from the
+        list ``ql``; ``owned``: whether ``m0`` is the run's own copy, else the caller's,
         which a new plan must not keep); its warnings point at :func:`integrate`'s
         caller."""
         method, dt, u = self.method, self.dt, self.u
         user = self.user
-        if user is not None:  # the torque at the initial state, in one compiled call
+        if user is not None and q0 is None:
+            # a repeated call: the torque at the initial state, in one compiled call
             model = self.model
-            if q0 is None:
-                q0 = np.array(ql)
+            q0 = np.array(ql)
             if not (_INITIAL_OK[0] if _INITIAL_OK else _initial_ok())(
                     model.address, self.t0, q0, m0, _NO_U if u is None else u, user.row,
                     user.promise):

@@ -171,3 +171,32 @@ def test_a_negative_zero_start_time_is_not_the_default_one(hlw):
         with pytest.raises(TorqueError) as info:
             liebody.integrate(scene, L0=np.array([6.0, 0.0, 0.0]), t0=t0, **kw)
         assert math.copysign(1.0, info.value.t) == math.copysign(1.0, t0)
+
+
+def test_a_first_call_checks_its_user_torque_once(hlw, monkeypatch):
+    """The first call of a user torque asks its compiled check of the initial state once
+    (``integrate()`` did, before the short run; the run asked again), a repeated call
+    once too."""
+    from liebody import _integrate
+
+    L0 = hlw[1]
+
+    @numba.njit
+    def torque(t, q, L):
+        return -0.1 * q[1:]
+
+    scene = liebody.TorqueBody(hlw_body(), torque)
+    check = _integrate._initial_ok()
+    asked = []
+
+    def counted(*args):
+        asked.append(args[1])
+        return check(*args)
+
+    monkeypatch.setattr(_integrate, "_INITIAL_OK", [counted])
+    kw = dict(dt=0.01, steps=2, method="splitting2")
+    first = liebody.integrate(scene, L0=L0, **kw)
+    assert len(asked) == 1
+    again = liebody.integrate(scene, L0=L0, **kw)
+    assert len(asked) == 2
+    _same(again, first)
