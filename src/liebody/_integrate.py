@@ -849,12 +849,11 @@ class _ShortCall:
                  t: np.ndarray, model, u, t0: float, user) -> None:
         self.method, self.dt, self.t0 = method, dt, t0
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
-        # the sample times every trajectory of the call shares: its own read-only array
-        # (the cache of short runs' times holds read-only ones; a longer run's are
-        # writeable) behind a view, which numpy refuses to make writeable again
-        times = t0 + t if t0 != 0.0 or t.flags.writeable else t
-        times.flags.writeable = False
-        self.times = times.view()
+        # the sample times every trajectory of the call shares: its own copy (a longer
+        # run's are writeable; the cache of short runs' times is shared) over an immutable
+        # buffer, which no array can be made to write to (a read-only array that owns its
+        # data, or the base of a view, numpy lets its user make writeable again)
+        self.times = np.frombuffer((t0 + t if t0 != 0.0 else t).tobytes())
         self.model, self.u, self.user = model, u, user
         self.fields = None  # the trajectories' other fields, from the first one
         self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
