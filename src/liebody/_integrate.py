@@ -988,9 +988,10 @@ class _ShortCall:
                                                 plan.info.copy(), None)
                     # (every key, in order, in a table the next ones' dicts clone at
                     # once; the scene's None: the call holds no reference to it)
-                    self.fields = fields = {**traj.__dict__}
+                    fields = {**traj.__dict__}
                     for name in ("t", "q", "L", "info", "scene"):
                         fields[name] = None
+                    self.fields = fields
                 else:  # Trajectory._from_fields, with the scene
                     traj = object.__new__(Trajectory)
                     d = traj.__dict__
@@ -1033,11 +1034,6 @@ class _ShortCall:
                     self.model, state, (t_start, t_start + 0.5 * dt, t_start + dt), u):
                 return run._failed_nonfinite(1 + saved, done, t_start, t_fail)
         return run._failed(status, done, saved, state)
-
-
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a.setflags(write=False)
-    return a
 
 
 def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
