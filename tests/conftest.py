@@ -51,3 +51,16 @@ def hlw():
 def physical():
     """A uniform 3 x 2 x 1 box and an arbitrary ``L0``."""
     return liebody.FreeBody(physical_body()), PHYSICAL_L0.copy()
+
+
+@pytest.fixture
+def registered():
+    """Names registered by a test are removed afterwards (the registry is global, and the
+    generic tests iterate over it)."""
+    from liebody import _methods
+
+    names: list[str] = []
+    yield names
+    for name in names:
+        _methods._REGISTRY.pop(name, None)
+    _methods._PLANS.clear()

@@ -150,12 +150,12 @@ def failure_message(method: str, status: np.ndarray, failed_at: np.ndarray) -> s
 
 
 def failure_summary(method: str, status, failed_at, dt: float, model=None, states=None,
-                    u=None) -> str | None:
+                    u=None, reach: tuple = (0.0, 1.0)) -> str | None:
     """:func:`failure_message`, and for a torque that failed the first such body's own
     words (the exception's type and message, its non-finite values, or for a scene's own
     torque model a time outside its sampled orbits), from the records: ``states``
     ``(N, 7)`` the bodies' last good states, ``u`` the controls (``(k,)`` or ``(N, k)``),
-    ``failed_at`` the end of each failing step."""
+    ``failed_at`` the end of each failing step, ``reach`` the plans' ``Plan.reach``."""
     message = failure_message(method, status, failed_at)
     if not message or model is None or states is None:
         return message
@@ -165,7 +165,7 @@ def failure_summary(method: str, status, failed_at, dt: float, model=None, state
     i = bad[0]
     ui = None if u is None else (u if np.ndim(u) == 1 else u[i])
     return message + f". Body {i}: " + torque_failure_words(
-        model, states[i], float(failed_at[i]) - dt, dt, ui, i)
+        model, states[i], float(failed_at[i]) - dt, dt, ui, i, reach)
 
 
 def first_slice(model) -> int:
@@ -651,21 +651,29 @@ def torque_failure(model, state, t, u=None, i: int = 0):
     return None, None
 
 
-def _failure_times(model, t0: float, dt: float) -> list[float]:
+def _failure_times(model, t0: float, dt: float, reach: tuple = (0.0, 1.0)) -> list[float]:
     """The step's clock values at which to ask why the torque failed: a time outside the
-    model's data (a sampled orbit's span) first, where there is one."""
+    model's data (a sampled orbit's span) first, where there is one; ``reach``: the
+    earliest and latest times the step's stages read, in steps (``Plan.reach``: a
+    composition with negative weights reads times outside its step)."""
     times = [t0, t0 + 0.5 * dt, t0 + dt]
+    lo, hi = reach
+    if lo < 0.0:
+        times.append(t0 + lo * dt)
+    if hi > 1.0:
+        times.append(t0 + hi * dt)
     span = getattr(model, "span", None)
     if span is not None:
         times.sort(key=lambda t: span[0] <= t <= span[1])
     return times
 
 
-def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0):
+def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0,
+                       reach: tuple = (0.0, 1.0)):
     """Call the user's torque at the last good state (at the step's clock values
-    ``t0``, ``t0 + dt/2``, ``t0 + dt``) to raise its own error, chained; ``traj`` (or
-    ``None``) goes on the error."""
-    for t in _failure_times(model, t0, dt):
+    ``t0``, ``t0 + dt/2``, ``t0 + dt``, and where its stages ``reach`` outside the step)
+    to raise its own error, chained; ``traj`` (or ``None``) goes on the error."""
+    for t in _failure_times(model, t0, dt, reach):
         exc, words = torque_failure(model, state, t, u, i)
         if words is not None:
             raise TorqueError(f"{name}: {words} {where}", traj, step, t0) from exc
@@ -674,9 +682,10 @@ def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i:
                       f"start state)", traj, step, t0)
 
 
-def torque_failure_words(model, state, t0, dt, u=None, i: int = 0) -> str:
+def torque_failure_words(model, state, t0, dt, u=None, i: int = 0,
+                         reach: tuple = (0.0, 1.0)) -> str:
     """Why body ``i``'s torque failed in the step from ``t0`` (for an ensemble's warning)."""
-    for t in _failure_times(model, t0, dt):
+    for t in _failure_times(model, t0, dt, reach):
         words = torque_failure(model, state, t, u, i)[1]
         if words is not None:
             return f"{words} at t = {t:.6g}"

@@ -58,6 +58,7 @@ class EnsembleRun:
         self.t0 = t0  # the start time; self.t holds the sample times relative to it
         self.simd = simd  # None: automatic; True / False: where supported / never
         self.slices = time_slices
+        self.reach = (0.0, 1.0)  # the times the plans' stages read, in steps (Plan.reach)
         n, k = q0.shape[0], t.shape[0]
         self.q_out = np.empty((n, k, 4))
         self.m_out = np.empty((n, k, 3))
@@ -141,6 +142,8 @@ class EnsembleRun:
         groups = self.method.plans(self.scene, self.m0, self.dt)
         runners = [self._runner(plan) for _, plan in groups]
         self.info = groups_info(groups, runners)
+        reaches = [plan.reach for _, plan in groups]
+        self.reach = min(r[0] for r in reaches), max(r[1] for r in reaches)
         if len(groups) > 1:  # each group on contiguous rows of the samples, in this order
             self.order = np.concatenate([idx for idx, _ in groups])
             self.q_out[:, 0], self.m_out[:, 0] = self.q0[self.order], self.m0[self.order]
@@ -229,7 +232,7 @@ class EnsembleRun:
         for i in bad:
             status[i] = "failed: " + REASONS.get(int(self.status[i]), "unknown")
         message = failure_summary(self.method.name, status, failed_at, self.dt, self.model,
-                                  self.state, self.u)
+                                  self.state, self.u, self.reach)
         if message:
             warnings.warn(message, RuntimeWarning, stacklevel=4)
         diag = None

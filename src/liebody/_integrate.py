@@ -58,6 +58,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     warn_invariants,
     write_controls,
 )
+from liebody._engine import T0 as ARG_T0
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
 from liebody._methods import _REGISTRY
@@ -427,18 +428,17 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             and dt.__class__ is float and steps.__class__ is int
             and (save_every is None or save_every.__class__ is int) and t0.__class__ is float
             and (method is None or method.__class__ is str)):
-        # a call whose arguments but the initial state were checked before (a loop)
-        key = (method, dt, steps, save_every, t0)
+        # a call whose arguments but the initial state and time were checked before (a
+        # loop; a clock that advances from call to call keeps the call)
+        key = (method, dt, steps, save_every)
         calls = scene.__dict__.get(_SHORT_CALLS)
         if calls is not None:
             call = calls.get(key)
-            # (t0 = -0.0 equals 0.0 and hashes alike: the drivers and the torque get the
-            # caller's, so a call kept for the other zero is not that call)
-            if call is not None and (t0 is call.t0 or t0 != 0.0 or math.copysign(
-                    1.0, t0) == math.copysign(1.0, call.t0)):
+            if call is not None:
                 start = call.start(q0, L0)
-                if start is not None:
-                    return call.run(scene, *start)
+                # (t0 + dt == t0 refused by the general path: clock_origin)
+                if start is not None and (t0 == 0.0 or (t0 + dt != t0 and t0 - t0 == 0.0)):
+                    return call.run(scene, t0, *start)
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
     if q_init.ndim != 1:
         _check_batch("q0", q_init)
@@ -504,13 +504,13 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         if t is None:
             t = _sample_times(n_steps, save_every, dt)
         if n_steps <= first and not (progress or diagnostics or method.sampled):
-            call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, u, t0, user)
+            call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, u, user)
             if key is not None and u is None and (user is None or not user.conservative):
                 calls = _memo(scene, "short_calls", dict)
                 if len(calls) >= SHORT_CALLS_KEPT:
                     calls.clear()
                 calls[key] = call
-            return call.run(scene, q_init.tolist(), m_init.tolist(), m_init, q_init)
+            return call.run(scene, t0, q_init.tolist(), m_init.tolist(), m_init, q_init)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
@@ -832,28 +832,26 @@ def _drive(runner, plan, args: tuple):
 class _ShortCall:
     """A one-body run of one driver call, without progress bar or diagnostics (the fixed
     cost of control loops and optimisers): :meth:`_Run.stepped` without a run object, for
-    one method, step, step count, save interval, start time, model and controls.
+    one method, step, step count, save interval, model and controls.
 
     Without controls and without a user torque whose potential is called, the call is
     kept on the scene (frozen) under the arguments that decided it (:func:`integrate`'s
-    fast path): a repeated call then checks its initial state only (:meth:`start`). The
+    fast path): a repeated call then checks its initial state and time only
+    (:meth:`start`; the sample times and the driver's arguments of the last start time
+    are kept, so a loop that advances the clock reuses the call too). The
     call holds no reference to its scene (:meth:`run` is given it): kept on the scene, it
     would make a cycle that frees the scene only when the cyclic garbage collector runs.
     An interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it
     as a longer run would."""
 
-    __slots__ = ("casimir", "ctl", "dt", "energy", "fields", "keep", "last", "method", "model",
-                 "moments", "n_steps", "rotor", "save_every", "t", "t0", "times", "u", "user")
+    __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "keep", "last", "method",
+                 "model", "moments", "n_steps", "rotor", "save_every", "t", "u", "user")
 
     def __init__(self, scene, method, dt: float, n_steps: int, save_every: int,
-                 t: np.ndarray, model, u, t0: float, user) -> None:
-        self.method, self.dt, self.t0 = method, dt, t0
+                 t: np.ndarray, model, u, user) -> None:
+        self.method, self.dt = method, dt
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
-        # the sample times every trajectory of the call shares: its own copy (a longer
-        # run's are writeable; the cache of short runs' times is shared) over an immutable
-        # buffer, which no array can be made to write to (a read-only array that owns its
-        # data, or the base of a view, numpy lets its user make writeable again)
-        self.times = np.frombuffer((t0 + t if t0 != 0.0 else t).tobytes())
+        self.at = None  # (t0, the sample times t0 + t) of the last start time
         self.model, self.u, self.user = model, u, user
         self.fields = None  # the trajectories' other fields, from the first one
         self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
@@ -924,35 +922,51 @@ class _ShortCall:
             L0 = np.array(ml)
         return ql, ml, L0, None, owned
 
-    def run(self, scene, ql: list, ml: list, m0: np.ndarray, q0: np.ndarray | None = None,
-            owned: bool = True) -> Trajectory:
-        """The run of ``scene`` from ``q0`` and ``m0`` (``q0``: given by a first call,
-        whose user torque :func:`integrate` checked; a repeated call's is made from the
-        list ``ql``; ``owned``: whether ``m0`` is the run's own copy, else the caller's,
-        which a new plan must not keep); its warnings point at :func:`integrate`'s
-        caller."""
+    def run(self, scene, t0: float, ql: list, ml: list, m0: np.ndarray,
+            q0: np.ndarray | None = None, owned: bool = True) -> Trajectory:
+        """The run of ``scene`` from ``q0`` and ``m0`` at ``t0`` (``q0``: given by a first
+        call, whose user torque :func:`integrate` checked; a repeated call's is made from
+        the list ``ql``; ``owned``: whether ``m0`` is the run's own copy, else the
+        caller's, which a new plan must not keep); its warnings point at
+        :func:`integrate`'s caller."""
         method, dt, u = self.method, self.dt, self.u
+        at = self.at
+        # (t0 = -0.0 equals 0.0: the drivers and the torque get the caller's zero)
+        if at is not None and (t0 is at[0] or (t0 == at[0] and math.copysign(
+                1.0, t0) == math.copysign(1.0, at[0]))):
+            times = at[1]
+        else:
+            # the sample times every trajectory from t0 shares: its own copy (a longer
+            # run's are writeable; the cache of short runs' times is shared) over an
+            # immutable buffer, which no array can be made to write to (a read-only array
+            # that owns its data, or the base of a view, numpy lets its user make
+            # writeable again)
+            times = np.frombuffer((t0 + self.t if t0 != 0.0 else self.t).tobytes())
+            self.at = (t0, times)
         user = self.user
         if user is not None and q0 is None:
             # a repeated call: the torque at the initial state, in one compiled call
             model = self.model
             q0 = np.array(ql)
             if not (_INITIAL_OK[0] if _INITIAL_OK else _initial_ok())(
-                    model.address, self.t0, q0, m0, _NO_U if u is None else u, user.row,
+                    model.address, t0, q0, m0, _NO_U if u is None else u, user.row,
                     user.promise):
-                _check_torque(model, q0, m0, u, self.t0, orientation_only=user.promise,
+                _check_torque(model, q0, m0, u, t0, orientation_only=user.promise,
                               compiled=False)
         key = m0.tobytes()
         last = self.last
         if last is not None and last[0] == key:
             _, plan, head, tail, fn = last
+            if head[ARG_T0] is not t0:  # the driver's clock origin: the caller's
+                head = (*head[:ARG_T0], t0, *head[ARG_T0 + 1:])
+                self.last = (key, plan, head, tail, fn)
         else:
             plan = method.plan(scene, m0 if owned else m0.copy(), dt)
             params = plan.first[0]
             if u is not None:
                 params = params.copy()
                 write_controls(params, u)
-            head, tail = one_body_arg_ends(plan, params, plan.merge_ends, dt, self.t0, 0.0,
+            head, tail = one_body_arg_ends(plan, params, plan.merge_ends, dt, t0, 0.0,
                                            self.n_steps, self.save_every, True,
                                            self.model.address, _NO_DREF, _NO_DMAX)
             fn = None
@@ -984,7 +998,7 @@ class _ShortCall:
                 m_out.setflags(write=False)
                 fields = self.fields
                 if fields is None:  # the first run: the template of the next ones
-                    traj = Trajectory._complete(self.times, q_out, m_out, scene, method, dt,
+                    traj = Trajectory._complete(times, q_out, m_out, scene, method, dt,
                                                 plan.info.copy(), None)
                     # (every key, in order, in a table the next ones' dicts clone at
                     # once; the scene's None: the call holds no reference to it)
@@ -996,7 +1010,7 @@ class _ShortCall:
                     traj = object.__new__(Trajectory)
                     d = traj.__dict__
                     d.update(fields)
-                    d["t"] = self.times
+                    d["t"] = times
                     d["q"] = q_out
                     d["L"] = m_out
                     d["scene"] = scene
@@ -1012,16 +1026,17 @@ class _ShortCall:
                             l1, l2, l3 = self.rotor
                             a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3
                             b1, b2, b3 = b1 - l1, b2 - l2, b3 - l3
-                        T0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
-                        T1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
-                        if not T0 > 0 or abs(T1 - T0) <= ENERGY_TOL * T0:
+                        e0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
+                        e1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
+                        if not e0 > 0 or abs(e1 - e0) <= ENERGY_TOL * e0:
                             return traj
                 # a problem, or a check that needs the potential: the words
                 return warn_invariants(traj, 4, (ql, end[:4], ml, end[4:]))
         run = _Run(scene, method, np.array(ql) if q0 is None else q0, m0, dt, self.n_steps,
-                   self.save_every, self.t, self.model, False, False, u, self.t0,
+                   self.save_every, self.t, self.model, False, False, u, t0,
                    (q_out, m_out))
         run.info = dict(plan.info)
+        run.reach = plan.reach
         if status is None:
             run._interrupted(1, 0)
         if status == S.STATUS_OK:
@@ -1029,7 +1044,7 @@ class _ShortCall:
         if status == S.STATUS_NONFINITE:
             # :meth:`_Run._failed`'s words, said a frame nearer :func:`integrate`'s caller
             # (its warning points there); a user torque found failing is left to it
-            t_start, t_fail = failed_step_times(self.t0, done, dt)
+            t_start, t_fail = failed_step_times(t0, done, dt)
             if self.model.function is None or _torque_is_finite(
                     self.model, state, (t_start, t_start + 0.5 * dt, t_start + dt), u):
                 return run._failed_nonfinite(1 + saved, done, t_start, t_fail)
@@ -1100,6 +1115,7 @@ class _Run:
             outputs = _outputs(q0, m0, t.shape[0])
         self.q_out, self.m_out = outputs
         self.info: dict = {}
+        self.reach = (0.0, 1.0)  # the times the plan's stages read, in steps (Plan.reach)
 
     def _slices(self, total: int, unit: str, first: int = FIRST_SLICE):
         return time_slices(total, self.progress, unit, first)
@@ -1151,6 +1167,7 @@ class _Run:
         """Run the method's stage table through the driver of its family, in slices."""
         plan = self.method.plan(self.scene, self.m0, self.dt)
         self.info = dict(plan.info)  # the trajectory's own (the plan's is cached and shared)
+        self.reach = plan.reach
         runner = (_DRIVERS or _drivers())[self.diag][plan.family]
         params, q0, m0, state, ctl = _start(plan, self.q0, self.m0, self.u, self.save_every)
         merge = plan.merge_ends and not self.diag
@@ -1249,13 +1266,14 @@ class _Run:
                     self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
                 raise_torque_error(self.model, name, where, state, t0, dt,
                                    self._partial(n_keep, "failed", failed_at=t_fail), done,
-                                   self.u)
+                                   self.u, reach=self.reach)
             return self._failed_nonfinite(n_keep, done, t0, t_fail)
         # failed_at is the time the failing step was to reach, as for a blow-up and for
         # the bodies of an ensemble; the exception's .t is where that step starts
         traj = self._partial(n_keep, "failed", failed_at=t_fail)
         if status == S.STATUS_TORQUE:
-            raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u)
+            raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u,
+                               reach=self.reach)
         if status == S.STATUS_NO_CONVERGENCE:
             w = float(np.max(np.abs(state[4:] / self.scene.moments)))
             raise ConvergenceError(

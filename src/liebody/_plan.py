@@ -410,6 +410,15 @@ class Plan:
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
 
+    @property
+    def reach(self) -> tuple[float, float]:
+        """The earliest and latest times its stages read, in steps from the step's start:
+        ``(0, 1)`` unless a composition with negative weights reaches outside its step
+        (Yoshida's triple jump: ``(-0.35, 1.35)``; the failure reports look there for a
+        time outside a sampled orbit's span)."""
+        c = np.concatenate(([0.0], np.cumsum(self.clock)))
+        return min(0.0, float(c.min())), max(1.0, float(c.max()))
+
     def with_info(self, info: dict) -> Plan:
         """This plan with another ``info`` (an initial state of the same key): the arrays
         and the resolved entry points are shared."""

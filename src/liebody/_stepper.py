@@ -271,6 +271,7 @@ class Stepper:
             if self._u is not None:
                 write_controls(params, self._u)
             self.info = dict(plan.info)  # its own (the plan is cached and shared)
+            self._reach = plan.reach  # (a failure's report looks where the stages read)
             self._pu = params[:, S.P_U0:S.P_U0 + max(1, self._scene.controls)]
             self._ctl = np.zeros(2, dtype=np.int64)
             args = list(one_body_args(plan, params, bool(plan.merge_ends), self._dt, self._t0,
@@ -508,7 +509,7 @@ class Stepper:
             if status == S.STATUS_TORQUE or not _torque_is_finite(
                     self._model, state, (t0, t0 + 0.5 * dt, t0 + dt), self._u):
                 raise_torque_error(self._model, name, where, state, t0, dt, None, done,
-                                   self._u)
+                                   self._u, reach=getattr(self, "_reach", (0.0, 1.0)))
         if status == S.STATUS_NONFINITE:
             raise IntegrationError(f"{name}: the state became non-finite {where}", None, done,
                                    t0)

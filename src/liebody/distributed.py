@@ -297,9 +297,9 @@ def _run_task(scene, method, q0, m0, u, spec):
     return {"q": traj.q, "L": traj.L, "status": np.asarray(traj.status),
             "failed_at": np.asarray(traj.failed_at), "diagnostics": traj.diagnostics,
             "simd": _simd_record(traj.info, rows), "warnings": caught,
-            "state": run.state, "summary": failure_summary(
+            "state": run.state, "reach": run.reach, "summary": failure_summary(
                 method.name, traj.status, traj.failed_at, spec["dt"], run.model, run.state,
-                u)}
+                u, run.reach)}
 
 
 def _simd_record(info: dict, rows: int) -> np.ndarray | None:
@@ -390,7 +390,9 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
                 warnings.warn(message, category, stacklevel=stacklevel + 1)
     states = (None if any(r["state"] is None for r in records)
               else np.concatenate([r["state"] for r in records]))
-    message = failure_summary(name, status, failed_at, call.dt, model, states, call.u)
+    reach = (min([0.0] + [r.get("reach", (0.0, 1.0))[0] for r in records]),
+             max([1.0] + [r.get("reach", (0.0, 1.0))[1] for r in records]))
+    message = failure_summary(name, status, failed_at, call.dt, model, states, call.u, reach)
     if message:
         warnings.warn(message, RuntimeWarning, stacklevel=stacklevel + 1)
     diag = None

@@ -200,3 +200,50 @@ def test_a_healthy_baseline_run_to_the_end_of_the_table_completes():
             warnings.simplefilter("ignore", liebody.InvariantWarning)  # (euler's |q| grows)
             tr = liebody.integrate(_scene(), L0=L0, dt=DT, steps=100, method=method)
         assert tr.status == "complete" and tr.t[-1] == 100 * DT
+
+
+#: Yoshida's triple jump (1990) on splitting2: its stages read the orbit at t - 0.35 dt
+#: and t + 1.35 dt, outside the step
+_G = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+
+
+@pytest.fixture
+def triple_jump(registered):
+    name = "test_review_failures_triple_jump"
+    liebody.register_composition(name, [_G, 1.0 - 2.0 * _G, _G], base="splitting2")
+    registered.append(name)
+    return name
+
+
+def _axes_scene():
+    t = np.linspace(0.0, 10.0, 101)
+    return liebody.GravityGradient(BODY, [(1.0, Table(t, ORBIT.position(t)))],
+                                   free_flow="axes")
+
+
+def test_a_composition_that_reads_before_the_table_says_so(triple_jump):
+    """The first step's first stage reads the orbit at -0.35 dt, before the table: the
+    one-body error, the ensemble's warning and the Stepper's error say that time is
+    outside the table (before: 'its parameters overflow')."""
+    scene = _axes_scene()
+    words = r"the time t = -0\.035\d* is outside the times \[0, 10\]"
+    for steps in (5, 5000):  # a short run, and one in slices
+        with pytest.raises(TorqueError, match=words) as info:
+            liebody.integrate(scene, L0=L0, dt=DT, steps=steps, method=triple_jump)
+        assert info.value.step == 0 and "overflow" not in str(info.value)
+    for simd in (False, True):
+        with pytest.warns(RuntimeWarning, match=words):
+            liebody.integrate(scene, L0=[L0, L0, L0], dt=DT, steps=5, method=triple_jump,
+                              simd=simd, threads=1)
+    with pytest.raises(TorqueError, match=words) as info:
+        liebody.Stepper(scene, L0=L0, dt=DT, method=triple_jump).step(5)
+    assert info.value.step == 0 and "overflow" not in str(info.value)
+
+
+def test_a_composition_that_reads_past_the_table_says_so(triple_jump):
+    """Started inside, the run fails in the step whose last stages read past t = 10."""
+    with pytest.raises(TorqueError, match=r"the time t = 10\.0\d* is outside the times "
+                                          r"\[0, 10\]") as info:
+        liebody.integrate(_axes_scene(), L0=L0, dt=DT, steps=200, method=triple_jump,
+                          t0=0.1)
+    assert info.value.t < 10.0 < info.value.t + 1.36 * DT

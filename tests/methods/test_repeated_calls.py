@@ -13,9 +13,11 @@ import liebody
 from liebody.errors import InvariantWarning
 
 
-def _same(a: liebody.Trajectory, b: liebody.Trajectory) -> None:
+def _same(a: liebody.Trajectory, b: liebody.Trajectory, scene: bool = True) -> None:
     assert vars(a).keys() == vars(b).keys()
     for k, v in vars(b).items():
+        if k == "scene" and not scene:
+            continue
         got = getattr(a, k)
         assert np.array_equal(got, v) if isinstance(v, np.ndarray) else got == v, k
     for arr in (a.t, a.q, a.L):
@@ -111,10 +113,11 @@ def test_a_repeated_call_keeps_quiet_when_the_first_does(hlw):
             liebody.integrate(scene, L0=L0, dt=0.01, steps=2, method="splitting2")
 
 
-def test_a_replaced_method_is_not_run_from_the_old_call(hlw):
+def test_a_replaced_method_is_not_run_from_the_old_call(hlw, registered):
     scene, L0 = hlw
     name = "test_repeated_composition"
-    liebody.register_composition(name, [1.0], base="splitting2", replace=True)
+    liebody.register_composition(name, [1.0], base="splitting2")
+    registered.append(name)
     kw = dict(dt=0.05, steps=4, method=name)
     for _ in range(2):
         a = liebody.integrate(scene, L0=L0, **kw)
@@ -161,3 +164,36 @@ def test_controls_are_read_on_every_call(hlw):
     c = liebody.integrate(body, controls=[0.0, 0.0, 0.0], **kw)
     _same(a, c)
     assert abs((b.L[-1] - a.L[-1])[2] - 0.2) < 0.01  # the kick of u over 0.2
+
+
+def test_a_loop_that_advances_the_clock_keeps_one_call():
+    """A control loop under a time-dependent torque advances t0 from call to call: one
+    kept call serves them all, with the numbers of a first call at each t0 (a new scene,
+    the general path)."""
+    from liebody.orbits import Circular
+
+    body = liebody.RigidBody([1.0, 1.7, 2.6])
+    sources = [(1.0, Circular(n=0.3, radius=2.0, inclination=0.4, phase=0.2))]
+    scene = liebody.GravityGradient(body, sources)
+    q, L = liebody.quaternion.random(rng=5), np.array([0.4, -1.1, 2.0])
+    dt = 0.05
+    for k in range(6):
+        t0 = 7.0 + k * 2 * dt
+        kw = dict(dt=dt, steps=2, method="splitting4", t0=t0)
+        a = liebody.integrate(scene, q0=q, L0=L, **kw)
+        fresh = liebody.GravityGradient(body, sources)
+        _same(a, liebody.integrate(fresh, q0=q, L0=L, **kw), scene=False)
+        np.testing.assert_array_equal(a.t, t0 + dt * np.arange(3.0))
+        q, L = a.q[-1], a.L[-1]
+    assert len(vars(scene)["_memo_short_calls"]) == 1
+
+
+@pytest.mark.parametrize("t0, words", [(1e20, "the clock could not advance"),
+                                       (np.inf, "t0"), (np.nan, "t0")])
+def test_a_repeated_call_refuses_a_bad_clock_as_the_first(hlw, t0, words):
+    scene, L0 = hlw
+    kw = dict(dt=0.01, steps=1, method="splitting2")
+    for _ in range(2):
+        liebody.integrate(scene, L0=L0, t0=1.0, **kw)
+    with pytest.raises(ValueError, match=words):
+        liebody.integrate(scene, L0=L0, t0=float(t0), **kw)

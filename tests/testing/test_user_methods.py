@@ -13,18 +13,6 @@ import liebody
 from liebody import _methods, testing
 from liebody import _plan as P
 
-
-@pytest.fixture
-def registered():
-    """Names registered by a test are removed afterwards (the registry is global, and the
-    generic tests iterate over it)."""
-    names: list[str] = []
-    yield names
-    for name in names:
-        _methods._REGISTRY.pop(name, None)
-    _methods._PLANS.clear()
-
-
 G1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 TRIPLE_JUMP = [G1, 1.0 - 2.0 * G1, G1]
 
