@@ -124,7 +124,10 @@ def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
                 return L0.copy()
     elif (cls is list or cls is tuple) and len(L0) == 3 and all(
             v.__class__ is float or v.__class__ is int for v in L0):
-        m1, m2, m3 = (float(v) for v in L0)
+        try:
+            m1, m2, m3 = (float(v) for v in L0)
+        except OverflowError:  # an int beyond float64: the general path below says so
+            m1 = m2 = m3 = math.inf
         if abs(m1) <= MAX_MOMENTUM and abs(m2) <= MAX_MOMENTUM and abs(m3) <= MAX_MOMENTUM:
             return np.array((m1, m2, m3))
     if L0 is not None:
@@ -282,7 +285,10 @@ def _sample_times(n_steps: int, save_every: int, dt: float, bodies: int = 1,
     t[-1] = n_steps
     t *= dt
     if n_samples <= SHORT_TIMES_SAMPLES:  # the short runs of control loops and optimisers
-        t.flags.writeable = False
+        # shared by every run of the key: over an immutable buffer, which no array can be
+        # made to write to (numpy lets a read-only array that owns its data be made
+        # writeable again, and a trajectory hands its times out)
+        t = np.frombuffer(t.tobytes())
         if len(_SHORT_TIMES) >= SHORT_TIMES_KEPT:
             # (None: another thread may have dropped the same oldest entry)
             _SHORT_TIMES.pop(next(iter(_SHORT_TIMES)), None)
@@ -1225,13 +1231,15 @@ class _Run:
             f"(t = {self.t0 + step * self.dt:.6g}); the {n_keep:,} samples computed so far are "
             f"on this exception's .trajectory", traj, step, self.t0 + step * self.dt) from None
 
-    def _failed_nonfinite(self, n_keep: int, step: int, t_start: float, t_fail: float
-                          ) -> Trajectory:
+    def _failed_nonfinite(self, n_keep: int, step: int, t_start: float, t_fail: float,
+                          stacklevel: int = 4) -> Trajectory:
+        """The samples before a non-finite state and the warning (at :func:`integrate`'s
+        caller: ``stacklevel`` counts this method's frame and those up to it)."""
         traj = self._partial(n_keep, "failed", failed_at=t_fail)
         warnings.warn(
             f"{self.method.name}: the state became non-finite "
             f"{failed_step_words(step, t_start, t_fail)}; returning the {n_keep:,} samples "
-            f"before it (Trajectory.failed_at is set)", RuntimeWarning, stacklevel=4)
+            f"before it (Trajectory.failed_at is set)", RuntimeWarning, stacklevel=stacklevel)
         return traj
 
     def _overflowed(self) -> Trajectory:
@@ -1267,7 +1275,7 @@ class _Run:
                 raise_torque_error(self.model, name, where, state, t0, dt,
                                    self._partial(n_keep, "failed", failed_at=t_fail), done,
                                    self.u, reach=self.reach)
-            return self._failed_nonfinite(n_keep, done, t0, t_fail)
+            return self._failed_nonfinite(n_keep, done, t0, t_fail, stacklevel=5)
         # failed_at is the time the failing step was to reach, as for a blow-up and for
         # the bodies of an ensemble; the exception's .t is where that step starts
         traj = self._partial(n_keep, "failed", failed_at=t_fail)

@@ -105,6 +105,14 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
         arr = np.asarray(value)
     except Exception as exc:  # pragma: no cover - numpy raises many kinds
         raise TypeError(f"{name} must be array-like of real numbers: {exc}") from exc
+    if arr.dtype == object and arr.size and all(
+            v.__class__ is int or v.__class__ is float for v in arr.flat):
+        # numpy keeps an int beyond int64 as an object (10**30 is a float64 all the same)
+        try:
+            arr = arr.astype(np.float64)
+        except OverflowError:
+            raise ValueError(f"{name} holds an integer beyond float64's range (about "
+                             f"1.8e308)") from None
     if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise TypeError(
             f"{name} must contain real numbers, got dtype {arr.dtype} "
@@ -151,7 +159,10 @@ def as_unit_quaternion(name: str, value, *, tol: float = UNIT_TOL) -> np.ndarray
                 return np.array((w / n, x / n, y / n, z / n))
     elif value.__class__ in _SEQUENCES and len(value) == 4 and all(
             v.__class__ in _REALS for v in value):
-        w, x, y, z = (float(v) for v in value)
+        try:
+            w, x, y, z = (float(v) for v in value)
+        except OverflowError:  # an int beyond float64: the general path below says so
+            w = x = y = z = math.nan
         n = math.sqrt(w * w + x * x + y * y + z * z)
         if abs(n - 1.0) <= tol:
             return np.array((w / n, x / n, y / n, z / n))

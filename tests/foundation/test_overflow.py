@@ -296,3 +296,27 @@ def test_flip_period_beyond_float64_raises():
         analysis.flip_period([1e300, 2e300, 3e300], [1e-300, 2e-300, 3e-300])
     with pytest.raises(ValueError, match=r"T_m underflows"):
         analysis.flip_period([1e-300, 2e-300, 3e-300], [1e300, 2e300, 3e300])
+
+
+@pytest.mark.parametrize(("kw", "name"), [
+    (dict(L0=[10**400, 0, 0]), "L0"), (dict(L0=(1.0, 2.0, -10**400)), "L0"),
+    (dict(q0=[10**400, 0, 0, 0], L0=[1.0, 0.0, 0.0]), "q0"),
+    (dict(omega0=(0, -10**400, 0)), "omega0")])
+def test_an_integer_beyond_float64_is_refused_by_name(kw, name):
+    """Python integers have no bound: one beyond float64's range is a ValueError naming the
+    argument (before: a bare OverflowError from the conversion)."""
+    import liebody
+
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    with pytest.raises(ValueError, match=f"{name} holds an integer beyond float64's range"):
+        liebody.integrate(scene, dt=0.1, steps=1, **kw)
+
+
+def test_an_integer_beyond_int64_within_float64_is_a_number():
+    """10**30 is beyond int64, so numpy keeps it as an object: it is still a float64."""
+    import liebody
+
+    scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
+    a = liebody.integrate(scene, omega0=[1.0, 0.0, 10**30], dt=1e-32, steps=2, method="rk4")
+    b = liebody.integrate(scene, omega0=[1.0, 0.0, 1e30], dt=1e-32, steps=2, method="rk4")
+    np.testing.assert_array_equal(a.L, b.L)

@@ -91,6 +91,33 @@ def test_a_blow_up_warns_at_the_callers_line_on_every_call(hlw, which):
     assert got[0] == got[1] == got[2]
 
 
+@pytest.mark.parametrize("which", [0, 1])
+@pytest.mark.parametrize("kw", [dict(diagnostics=True), dict(steps=100_000)])
+def test_a_blow_up_of_a_longer_run_warns_at_the_callers_line(hlw, which, kw):
+    """The same for the general path's runs (with diagnostics; in slices)."""
+    scene = _blow_up_scenes()[which]
+    kw = {"steps": 3, **kw}
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        traj = liebody.integrate(scene, L0=hlw[1] * 1e100, dt=1e3, method="euler", **kw)
+    assert traj.status == "failed"
+    assert [x.category for x in w] == [RuntimeWarning], [str(x.message) for x in w]
+    assert "the state became non-finite" in str(w[0].message)
+    assert w[0].filename == __file__
+
+
+def test_the_cached_times_of_short_runs_cannot_be_written(hlw):
+    """A run of the general path (diagnostics) hands out the cache of short runs' sample
+    times: no array over it can be made writeable, so no caller can change another's."""
+    scene, L0 = hlw
+    traj = liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method="splitting2",
+                             diagnostics=True)
+    _try_to_write(traj.t)
+    np.testing.assert_array_equal(
+        liebody.integrate(scene, L0=L0, dt=0.01, steps=3, method="splitting2",
+                          diagnostics=True).t, 0.01 * np.arange(4.0))
+
+
 def test_a_kept_call_does_not_keep_its_scene_alive(hlw):
     """The call kept on a scene holds no reference to it: a scene the caller drops (and
     the plan cache has let go of) is freed at once, not kept by a reference cycle until
