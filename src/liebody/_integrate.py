@@ -99,6 +99,8 @@ SETUP_BYTES_PER_ROW = 1536
 #: samples up to this size skip the check of the available memory (a file read)
 SMALL_RUN_BYTES = 1 << 24
 
+#: the exact flow's ``Trajectory.info`` (copied for each)
+_NO_INFO: dict = {}
 #: a scene's prepared short calls (``_ShortCall``, keyed by the arguments that decided
 #: them), read directly on :func:`integrate`'s fast path, and how many a scene keeps
 _SHORT_CALLS = _MEMO + "short_calls"
@@ -509,7 +511,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         t = _SHORT_TIMES.get((n_steps, save_every, dt))  # (a short run's: they fit)
         if t is None:
             t = _sample_times(n_steps, save_every, dt)
-        if n_steps <= first and not (progress or diagnostics or method.sampled):
+        if (t.shape[0] - 1 <= FIRST_SLICE if method.sampled else n_steps <= first) and not (
+                progress or diagnostics):
             call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, u, user)
             if key is not None and u is None and (user is None or not user.conservative):
                 calls = _memo(scene, "short_calls", dict)
@@ -850,8 +853,9 @@ class _ShortCall:
     An interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it
     as a longer run would."""
 
-    __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "keep", "last", "method",
-                 "model", "moments", "n_steps", "rotor", "save_every", "t", "u", "user")
+    __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "inertia", "keep", "last",
+                 "method", "model", "moments", "n_steps", "rotor", "save_every", "t", "u",
+                 "user")
 
     def __init__(self, scene, method, dt: float, n_steps: int, save_every: int,
                  t: np.ndarray, model, u, user) -> None:
@@ -859,6 +863,9 @@ class _ShortCall:
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.at = None  # (t0, the sample times t0 + t) of the last start time
         self.model, self.u, self.user = model, u, user
+        # the exact flow's moments (a free body's flow evaluated at the sample times)
+        self.inertia = np.ascontiguousarray(scene.moments, dtype=np.float64) \
+            if method.sampled else None
         self.fields = None  # the trajectories' other fields, from the first one
         self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
         self.ctl = ctl = _CTL.copy()
@@ -924,6 +931,11 @@ class _ShortCall:
         method = self.method
         if _REGISTRY.get(method.name) is not method:
             return None
+        if self.inertia is not None:  # the exact flow: a phase beyond float64's resolution
+            I1, I2, I3 = self.moments  # is warned of by the general path (_check_phase)
+            if not math.hypot(m1 / I1, m2 / I2, m3 / I3) * (self.n_steps * self.dt) \
+                    <= PHASE_LIMIT:
+                return None
         if owned:
             L0 = np.array(ml)
         return ql, ml, L0, None, owned
@@ -959,6 +971,8 @@ class _ShortCall:
                     user.promise):
                 _check_torque(model, q0, m0, u, t0, orientation_only=user.promise,
                               compiled=False)
+        if self.inertia is not None:
+            return self._exact(scene, t0, times, ql, ml, m0, q0)
         key = m0.tobytes()
         last = self.last
         if last is not None and last[0] == key:
@@ -1002,40 +1016,9 @@ class _ShortCall:
             if max(abs(b1), abs(b2), abs(b3)) <= MAX_MOMENTUM:
                 q_out.setflags(write=False)  # ours: no view
                 m_out.setflags(write=False)
-                fields = self.fields
-                if fields is None:  # the first run: the template of the next ones
-                    traj = Trajectory._complete(times, q_out, m_out, scene, method, dt,
-                                                plan.info.copy(), None)
-                    # (every key, in order, in a table the next ones' dicts clone at
-                    # once; the scene's None: the call holds no reference to it)
-                    fields = {**traj.__dict__}
-                    for name in ("t", "q", "L", "info", "scene"):
-                        fields[name] = None
-                    self.fields = fields
-                else:  # Trajectory._from_fields, with the scene
-                    traj = object.__new__(Trajectory)
-                    d = traj.__dict__
-                    d.update(fields)
-                    d["t"] = times
-                    d["q"] = q_out
-                    d["L"] = m_out
-                    d["scene"] = scene
-                    d["info"] = plan.info.copy()  # (the plan's is shared)
-                if self.keep and abs(math.hypot(w, x, y, z) - 1.0) <= QNORM_TOL:
-                    a1, a2, a3 = ml
-                    if not self.casimir or abs(math.hypot(b1, b2, b3) - math.hypot(
-                            a1, a2, a3)) <= CASIMIR_TOL * math.hypot(a1, a2, a3):
-                        if not self.energy:
-                            return traj
-                        I1, I2, I3 = self.moments
-                        if self.rotor is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
-                            l1, l2, l3 = self.rotor
-                            a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3
-                            b1, b2, b3 = b1 - l1, b2 - l2, b3 - l3
-                        e0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
-                        e1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
-                        if not e0 > 0 or abs(e1 - e0) <= ENERGY_TOL * e0:
-                            return traj
+                traj = self._trajectory(scene, times, q_out, m_out, plan.info)
+                if self._kept(w, x, y, z, ml, b1, b2, b3):
+                    return traj
                 # a problem, or a check that needs the potential: the words
                 return warn_invariants(traj, 4, (ql, end[:4], ml, end[4:]))
         run = _Run(scene, method, np.array(ql) if q0 is None else q0, m0, dt, self.n_steps,
@@ -1056,6 +1039,84 @@ class _ShortCall:
                 return run._failed_nonfinite(1 + saved, done, t_start, t_fail)
         return run._failed(status, done, saved, state)
 
+
+    def _trajectory(self, scene, times, q_out, m_out, info: dict) -> Trajectory:
+        """A complete run's trajectory (``q_out``, ``m_out`` read-only already; ``info``
+        copied: the plan's is shared)."""
+        fields = self.fields
+        if fields is None:  # the first run: the template of the next ones
+            traj = Trajectory._complete(times, q_out, m_out, scene, self.method, self.dt,
+                                        info.copy(), None)
+            # (every key, in order, in a table the next ones' dicts clone at
+            # once; the scene's None: the call holds no reference to it)
+            fields = {**traj.__dict__}
+            for name in ("t", "q", "L", "info", "scene"):
+                fields[name] = None
+            self.fields = fields
+        else:  # Trajectory._from_fields, with the scene
+            traj = object.__new__(Trajectory)
+            d = traj.__dict__
+            d.update(fields)
+            d["t"] = times
+            d["q"] = q_out
+            d["L"] = m_out
+            d["scene"] = scene
+            d["info"] = info.copy()  # (the plan's is shared)
+        return traj
+
+    def _kept(self, w, x, y, z, ml, b1, b2, b3) -> bool:
+        """Whether the end state ``(w, x, y, z, b1, b2, b3)`` from ``L0 = ml`` keeps the
+        invariants by :func:`_one_body_problems`'s rules, where they need no potential
+        (else false: :func:`warn_invariants` then checks it and says why)."""
+        if self.keep and abs(math.hypot(w, x, y, z) - 1.0) <= QNORM_TOL:
+            a1, a2, a3 = ml
+            if not self.casimir or abs(math.hypot(b1, b2, b3) - math.hypot(
+                    a1, a2, a3)) <= CASIMIR_TOL * math.hypot(a1, a2, a3):
+                if not self.energy:
+                    return True
+                I1, I2, I3 = self.moments
+                if self.rotor is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
+                    l1, l2, l3 = self.rotor
+                    a1, a2, a3 = a1 - l1, a2 - l2, a3 - l3
+                    b1, b2, b3 = b1 - l1, b2 - l2, b3 - l3
+                e0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
+                e1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
+                if not e0 > 0 or abs(e1 - e0) <= ENERGY_TOL * e0:
+                    return True
+        return False
+
+    def _exact(self, scene, t0, times, ql, ml, m0, q0) -> Trajectory:
+        """The exact flow evaluated at the sample times (:meth:`_Run.sampled` for one call
+        of its kernel); its warnings point at :func:`integrate`'s caller."""
+        if q0 is None:
+            q0 = np.array(ql)
+        n = self.t.shape[0]
+        q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
+        q_out[0] = ql
+        m_out[0] = m0
+        run = None
+        try:
+            (_EXACT[0] if _EXACT else _exact_flow_times())(self.inertia, q0, m0, self.t[1:],
+                                                          q_out[1:], m_out[1:])
+        except KeyboardInterrupt:
+            run = _Run(scene, self.method, q0, m0, self.dt, self.n_steps, self.save_every,
+                       self.t, self.model, False, False, None, t0, (q_out, m_out))
+            run._interrupted(1, 0)
+        if not math.isfinite(float(q_out.sum()) + float(m_out.sum())):
+            bad = ~(np.isfinite(q_out).all(axis=1) & np.isfinite(m_out).all(axis=1))
+            k = int(np.argmax(bad))
+            run = _Run(scene, self.method, q0, m0, self.dt, self.n_steps, self.save_every,
+                       self.t, self.model, False, False, None, t0, (q_out, m_out))
+            return run._failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
+                                         t0 + self.t[k], stacklevel=5)
+        q_out.setflags(write=False)  # ours: no view
+        m_out.setflags(write=False)
+        traj = self._trajectory(scene, times, q_out, m_out, _NO_INFO)
+        w, x, y, z = q_out[-1].tolist()
+        b1, b2, b3 = end = m_out[-1].tolist()
+        if self._kept(w, x, y, z, ml, b1, b2, b3):
+            return traj
+        return warn_invariants(traj, 5, (ql, [w, x, y, z], ml, end))
 
 def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
     """A one-body run's driver inputs: the first body's stage parameters (a copy with the

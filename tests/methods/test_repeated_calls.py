@@ -31,7 +31,7 @@ def _general(scene, q0, L0, **kw) -> liebody.Trajectory:
 
 
 @pytest.mark.parametrize("method", ["splitting2", "no_squish", "splitting4", "rk4", "dmv4",
-                                    "rattle", "saba2"])
+                                    "rattle", "saba2", "exact", None])
 @pytest.mark.parametrize("t0, save_every", [(0.0, 1), (3.5, 1), (0.0, None), (1.0, 2)])
 def test_repeated_calls_equal_the_general_path(hlw, method, t0, save_every):
     scene, L0 = hlw
@@ -197,3 +197,19 @@ def test_a_repeated_call_refuses_a_bad_clock_as_the_first(hlw, t0, words):
         liebody.integrate(scene, L0=L0, t0=1.0, **kw)
     with pytest.raises(ValueError, match=words):
         liebody.integrate(scene, L0=L0, t0=float(t0), **kw)
+
+
+def test_a_repeated_exact_flow_call_warns_of_a_lost_phase_as_the_first(hlw):
+    """The exact flow asked for a phase |omega| t beyond 1e15 rad: every call warns, at
+    the caller's line."""
+    scene, L0 = hlw
+    caught = []
+    for _ in range(3):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            liebody.integrate(scene, L0=L0, dt=1e15, steps=2)
+        caught.append([(str(x.message), x.category, x.filename) for x in w])
+    assert caught[0] and caught[0][0][1] is RuntimeWarning and "phase" in caught[0][0][0]
+    assert caught[0][0][2] == __file__
+    assert caught[0] == caught[1] == caught[2]
+    assert len(vars(scene)["_memo_short_calls"]) == 1  # (kept, and its check made)
