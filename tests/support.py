@@ -40,6 +40,19 @@ def physical_body() -> liebody.RigidBody:
 PHYSICAL_L0 = np.array([0.3, -0.2, 0.9])
 
 
+def same_trajectory(a: liebody.Trajectory, b: liebody.Trajectory, scene: bool = True) -> None:
+    """Assert the same fields and values (but the scene, with ``scene=False``: a run of
+    another scene), and read-only arrays."""
+    assert vars(a).keys() == vars(b).keys()
+    for k, v in vars(b).items():
+        if k == "scene" and not scene:
+            continue
+        got = getattr(a, k)
+        assert np.array_equal(got, v) if isinstance(v, np.ndarray) else got == v, k
+    for arr in (a.t, a.q, a.L):
+        assert not arr.flags.writeable
+
+
 def rotation_distance(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Max-norm distance between orientations, modulo the sign of the quaternion."""
     return np.minimum(np.abs(q1 - q2).max(axis=-1), np.abs(q1 + q2).max(axis=-1))

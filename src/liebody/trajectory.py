@@ -24,9 +24,6 @@ class Failure(NamedTuple):
 
 #: the fields' defaults of :class:`Trajectory` (and subclasses), for ``_complete``
 _DEFAULTS: dict = {}
-#: an empty read-only array (a template's placeholder)
-_EMPTY_T = np.zeros(0)
-_EMPTY_T.flags.writeable = False
 
 
 #: a unit quaternion standing in for a failed sample's orientation
@@ -158,28 +155,6 @@ class Trajectory:
             for value in diagnostics.values():
                 if isinstance(value, np.ndarray):
                     value.flags.writeable = False
-        return obj
-
-    @classmethod
-    def _fields_of(cls, scene, method, dt: float) -> dict:
-        """The fields of a complete run's trajectory without diagnostics but ``t``, ``q``,
-        ``L`` and ``info``: a template for :meth:`_from_fields` (kept by a caller that
-        makes many)."""
-        return {**cls._complete(_EMPTY_T, _EMPTY_T, _EMPTY_T, scene, method, dt, {},
-                                None).__dict__}
-
-    @classmethod
-    def _from_fields(cls, fields: dict, t: np.ndarray, q: np.ndarray, L: np.ndarray,
-                     info: dict) -> Trajectory:
-        """:meth:`_complete` from a template of :meth:`_fields_of` (``t``, ``q`` and ``L``
-        read-only already: not checked)."""
-        obj = object.__new__(cls)
-        d = obj.__dict__
-        d.update(fields)
-        d["t"] = t
-        d["q"] = q
-        d["L"] = L
-        d["info"] = info
         return obj
 
     def __len__(self) -> int:

@@ -11,17 +11,7 @@ import pytest
 
 import liebody
 from liebody.errors import InvariantWarning
-
-
-def _same(a: liebody.Trajectory, b: liebody.Trajectory, scene: bool = True) -> None:
-    assert vars(a).keys() == vars(b).keys()
-    for k, v in vars(b).items():
-        if k == "scene" and not scene:
-            continue
-        got = getattr(a, k)
-        assert np.array_equal(got, v) if isinstance(v, np.ndarray) else got == v, k
-    for arr in (a.t, a.q, a.L):
-        assert not arr.flags.writeable
+from support import same_trajectory
 
 
 def _general(scene, q0, L0, **kw) -> liebody.Trajectory:
@@ -40,14 +30,14 @@ def test_repeated_calls_equal_the_general_path(hlw, method, t0, save_every):
     first = liebody.integrate(scene, q0=q0, L0=L0, **kw)
     for _ in range(3):
         again = liebody.integrate(scene, q0=q0, L0=L0, **kw)
-        _same(again, first)
+        same_trajectory(again, first)
     assert len(vars(scene)["_memo_short_calls"]) == 1  # (the repeated path was taken)
-    _same(again, _general(scene, q0, L0, **kw))
+    same_trajectory(again, _general(scene, q0, L0, **kw))
     kept = [0, 1, 2, 3] if save_every == 1 else [0, 2, 3] if save_every == 2 else [0, 3]
     np.testing.assert_array_equal(again.t, t0 + 0.01 * np.array(kept, dtype=float))
     # a new initial state: its own run, as a first call from it gives
     L1 = L0 * 1.01
-    _same(liebody.integrate(scene, q0=q0, L0=L1, **kw), _general(scene, q0, L1, **kw))
+    same_trajectory(liebody.integrate(scene, q0=q0, L0=L1, **kw), _general(scene, q0, L1, **kw))
 
 
 def test_a_repeated_call_renormalises_q0_as_the_first(hlw):
@@ -56,7 +46,7 @@ def test_a_repeated_call_renormalises_q0_as_the_first(hlw):
     kw = dict(dt=0.01, steps=2, method="splitting2")
     liebody.integrate(scene, q0=q0, L0=L0, **kw)
     again = liebody.integrate(scene, q0=q0, L0=L0, **kw)
-    _same(again, _general(scene, q0, L0, **kw))
+    same_trajectory(again, _general(scene, q0, L0, **kw))
     np.testing.assert_array_equal(again.q[0], q0 / np.sqrt(np.sum(q0 * q0)))
 
 
@@ -162,7 +152,7 @@ def test_controls_are_read_on_every_call(hlw):
     a = liebody.integrate(body, controls=[0.0, 0.0, 0.0], **kw)
     b = liebody.integrate(body, controls=[0.0, 0.0, 1.0], **kw)
     c = liebody.integrate(body, controls=[0.0, 0.0, 0.0], **kw)
-    _same(a, c)
+    same_trajectory(a, c)
     assert abs((b.L[-1] - a.L[-1])[2] - 0.2) < 0.01  # the kick of u over 0.2
 
 
@@ -182,7 +172,7 @@ def test_a_loop_that_advances_the_clock_keeps_one_call():
         kw = dict(dt=dt, steps=2, method="splitting4", t0=t0)
         a = liebody.integrate(scene, q0=q, L0=L, **kw)
         fresh = liebody.GravityGradient(body, sources)
-        _same(a, liebody.integrate(fresh, q0=q, L0=L, **kw), scene=False)
+        same_trajectory(a, liebody.integrate(fresh, q0=q, L0=L, **kw), scene=False)
         np.testing.assert_array_equal(a.t, t0 + dt * np.arange(3.0))
         q, L = a.q[-1], a.L[-1]
     assert len(vars(scene)["_memo_short_calls"]) == 1

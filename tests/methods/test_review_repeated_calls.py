@@ -16,19 +16,9 @@ import pytest
 import liebody
 from liebody import _methods
 from liebody.errors import TorqueError
-from support import hlw_body
+from support import hlw_body, same_trajectory
 
 _CALLS = "_memo_short_calls"
-
-
-def _same(a: liebody.Trajectory, b: liebody.Trajectory, scene: bool = True) -> None:
-    """The same fields (but the scene, with ``scene=False``: a run of another scene)."""
-    assert vars(a).keys() == vars(b).keys()
-    for k, v in vars(b).items():
-        if k == "scene" and not scene:
-            continue
-        got = getattr(a, k)
-        assert np.array_equal(got, v) if isinstance(v, np.ndarray) else got == v, k
 
 
 def _try_to_write(t: np.ndarray) -> None:
@@ -159,10 +149,11 @@ def test_a_state_given_as_numbers_repeats_the_call(hlw, q0, L0):
     call = vars(scene)[_CALLS][(kw["method"], 0.01, 3, 1)]
     for _ in range(2):
         again = liebody.integrate(scene, q0=q0, L0=L0, **kw)
-        _same(again, first)
+        same_trajectory(again, first)
         assert vars(scene)[_CALLS][(kw["method"], 0.01, 3, 1)] is call
-    _same(again, liebody.integrate(liebody.FreeBody(scene.body), q0=np.array(q0, dtype=float),
-                                   L0=np.array(L0, dtype=float), **kw), scene=False)
+    other = liebody.integrate(liebody.FreeBody(scene.body), q0=np.array(q0, dtype=float),
+                              L0=np.array(L0, dtype=float), **kw)
+    same_trajectory(again, other, scene=False)
 
 
 @pytest.mark.parametrize("q0, L0, error", [
@@ -229,4 +220,4 @@ def test_a_first_call_checks_its_user_torque_once(hlw, monkeypatch):
     assert len(asked) == 1
     again = liebody.integrate(scene, L0=L0, **kw)
     assert len(asked) == 2
-    _same(again, first)
+    same_trajectory(again, first)
