@@ -66,6 +66,20 @@ def _assert_same(s, twin):
     assert not s.failed.any()
 
 
+def _step_interrupted(s, at: int, monkeypatch):
+    """``s.step(100)`` with Ctrl-C at the ``at``-th clock reading: the exception (checked:
+    a KeyboardInterrupt, at the stepper's time), or ``None`` when the call finished."""
+    monkeypatch.setattr(_stepper, "time", InterruptingClock(at))
+    try:
+        s.step(100)
+        return None
+    except liebody.IntegrationInterrupted as exc:
+        assert isinstance(exc, KeyboardInterrupt) and exc.t == s.t
+        return exc
+    finally:
+        monkeypatch.undo()
+
+
 def test_the_third_call_is_cut_where_bodies_keep_their_merged_steps(monkeypatch):
     """The case the tests below interrupt: the call from step 200 is cut at 273 and 274
     by body 1's landing on its limit, where bodies 0 and 2 go on merged (before the fix
@@ -97,14 +111,8 @@ def test_ctrl_c_between_slices_leaves_every_body_as_a_shorter_call_would(monkeyp
     seen = set()
     for at in range(1, 25):
         s = _ensemble([100, 100])
-        monkeypatch.setattr(_stepper, "time", InterruptingClock(at))
-        try:
-            s.step(100)
-            m = None
-        except liebody.IntegrationInterrupted as exc:
-            m = exc.step
-            assert isinstance(exc, KeyboardInterrupt) and exc.t == s.t
-        monkeypatch.undo()
+        exc = _step_interrupted(s, at, monkeypatch)
+        m = None if exc is None else exc.step
         if m is None:
             break
         seen.add(m)
@@ -206,14 +214,10 @@ def test_ctrl_c_in_a_one_body_call_counts_the_steps_of_the_call(monkeypatch):
     seen = set()
     for at in range(1, 40):
         s = _one_body(1, [100, 100])
-        monkeypatch.setattr(_stepper, "time", InterruptingClock(at))
-        try:
-            s.step(100)
-            m = None
-        except liebody.IntegrationInterrupted as exc:
-            m = exc.step
-            assert exc.t == s.t and f"after {m:,} of 100 steps" in str(exc)
-        monkeypatch.undo()
+        exc = _step_interrupted(s, at, monkeypatch)
+        m = None if exc is None else exc.step
+        if m is not None:
+            assert f"after {m:,} of 100 steps" in str(exc)
         if m is None:
             break
         seen.add(m)
