@@ -66,6 +66,17 @@ def _assert_same(s, twin):
     assert not s.failed.any()
 
 
+def _assert_as_its_twin(s, m: int) -> None:
+    """The stepper ``s``, interrupted after ``m`` steps of its third call, is one that took
+    ``step(m)`` there, every body its one-body stepper's, then and after 150 steps more."""
+    twin = _ensemble([100, 100, m] if m else [100, 100])
+    _assert_same(s, twin)
+    _assert_bodies_are_their_one_body_steppers(s, [100, 100, m])
+    s.step(150)
+    twin.step(150)
+    _assert_same(s, twin)
+
+
 def _step_interrupted(s, at: int, monkeypatch):
     """``s.step(100)`` with Ctrl-C at the ``at``-th clock reading: the exception (checked:
     a KeyboardInterrupt, at the stepper's time), or ``None`` when the call finished."""
@@ -117,12 +128,7 @@ def test_ctrl_c_between_slices_leaves_every_body_as_a_shorter_call_would(monkeyp
             break
         seen.add(m)
         assert 0 <= m <= 100 and s.steps == 200 + m
-        twin = _ensemble([100, 100, m] if m else [100, 100])
-        _assert_same(s, twin)
-        _assert_bodies_are_their_one_body_steppers(s, [100, 100, m])
-        s.step(150)
-        twin.step(150)
-        _assert_same(s, twin)
+        _assert_as_its_twin(s, m)
         _assert_bodies_are_their_one_body_steppers(s, [100, 100, m, 150])
     # the slices ending the cut pieces (73, 74) were interrupted: completed one step on
     assert {0, 74, 75, 100} <= seen
@@ -164,12 +170,7 @@ def test_ctrl_c_between_the_pieces_of_a_call(where, at, after, monkeypatch):
     monkeypatch.undo()
     m = info.value.step
     assert m in (0, 74, 75) and s.steps == 200 + m and info.value.t == s.t
-    twin = _ensemble([100, 100, m] if m else [100, 100])
-    _assert_same(s, twin)
-    _assert_bodies_are_their_one_body_steppers(s, [100, 100, m])
-    s.step(150)
-    twin.step(150)
-    _assert_same(s, twin)
+    _assert_as_its_twin(s, m)
 
 
 def test_a_body_failing_after_a_merged_cut_is_left_at_its_state_before_the_call(
