@@ -1088,25 +1088,28 @@ class _ShortCall:
     def _exact(self, scene, t0, times, ql, ml, m0, q0) -> Trajectory:
         """The exact flow evaluated at the sample times (:meth:`_Run.sampled` for one call
         of its kernel); its warnings point at :func:`integrate`'s caller."""
-        if q0 is None:
-            q0 = np.array(ql)
         n = self.t.shape[0]
         q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
         q_out[0] = ql
         m_out[0] = m0
         run = None
         try:
-            (_EXACT[0] if _EXACT else _exact_flow_times())(self.inertia, q0, m0, self.t[1:],
-                                                          q_out[1:], m_out[1:])
+            # the initial state from the first samples: contiguous and writeable, as a
+            # first call's copies (a repeated call's m0 is the caller's L0, which may be
+            # read-only or strided: numba would compile the kernel again for it)
+            (_EXACT[0] if _EXACT else _exact_flow_times())(self.inertia, q_out[0], m_out[0],
+                                                          self.t[1:], q_out[1:], m_out[1:])
         except KeyboardInterrupt:
-            run = _Run(scene, self.method, q0, m0, self.dt, self.n_steps, self.save_every,
-                       self.t, self.model, False, False, None, t0, (q_out, m_out))
+            run = _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
+                       self.n_steps, self.save_every, self.t, self.model, False, False, None,
+                       t0, (q_out, m_out))
             run._interrupted(1, 0)
         if not math.isfinite(float(q_out.sum()) + float(m_out.sum())):
             bad = ~(np.isfinite(q_out).all(axis=1) & np.isfinite(m_out).all(axis=1))
             k = int(np.argmax(bad))
-            run = _Run(scene, self.method, q0, m0, self.dt, self.n_steps, self.save_every,
-                       self.t, self.model, False, False, None, t0, (q_out, m_out))
+            run = _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
+                       self.n_steps, self.save_every, self.t, self.model, False, False, None,
+                       t0, (q_out, m_out))
             return run._failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
                                          t0 + self.t[k], stacklevel=5)
         q_out.setflags(write=False)  # ours: no view
@@ -1117,6 +1120,7 @@ class _ShortCall:
         if self._kept(w, x, y, z, ml, b1, b2, b3):
             return traj
         return warn_invariants(traj, 5, (ql, [w, x, y, z], ml, end))
+
 
 def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
     """A one-body run's driver inputs: the first body's stage parameters (a copy with the

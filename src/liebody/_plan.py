@@ -410,12 +410,13 @@ class Plan:
     def n_stages(self) -> int:
         return int(self.kinds.shape[0])
 
-    @property
+    @cached_property
     def reach(self) -> tuple[float, float]:
         """The earliest and latest times its stages read, in steps from the step's start:
         ``(0, 1)`` unless a composition with negative weights reaches outside its step
         (Yoshida's triple jump: ``(-0.35, 1.35)``; the failure reports look there for a
-        time outside a sampled orbit's span)."""
+        time outside a sampled orbit's span). Made once: every run of a long call, an
+        ensemble or a Stepper reads it (a few microseconds to make)."""
         c = np.concatenate(([0.0], np.cumsum(self.clock)))
         return min(0.0, float(c.min())), max(1.0, float(c.max()))
 
