@@ -583,6 +583,8 @@ def _gather(client, futures, chunks, call: _Call):
                     exc.add_note(f"liebody.distributed: in the task of bodies {c.start} to "
                                  f"{c.stop - 1} (the other tasks were cancelled)")
                 raise
+            # (a copy: tasks of the same inputs are one task, whose result they share)
+            part = dict(part)
             q[c], L[c] = part.pop("q"), part.pop("L")
             records.append(part)
             f.release()

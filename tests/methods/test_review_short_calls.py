@@ -188,3 +188,32 @@ def test_the_reach_of_a_plan_is_made_once(registered):
     assert plan.reach is plan.reach
     base = _methods.supported("splitting2", scene).plan(scene, L0.copy(), 0.01)
     assert base.reach == (0.0, 1.0)
+
+
+def test_distributed_tasks_of_identical_bodies_and_a_composition_past_the_table(registered):
+    """Tasks of the same inputs (identical bodies) are one task on dask (pure keys): its
+    result, shared by their futures, is read, not emptied (before: KeyError 'q' for the
+    second, on an in-process cluster). A composition whose first stage reads the orbit
+    before its table says so, as the local ensemble does."""
+    distributed = pytest.importorskip("distributed")
+    import liebody.distributed
+    from liebody.orbits import Table
+
+    g = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+    name = "test_review_short_calls_distributed_triple_jump"
+    liebody.register_composition(name, [g, 1.0 - 2.0 * g, g], base="splitting2")
+    registered.append(name)
+    t = np.linspace(0.0, 10.0, 101)
+    orbit = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
+    scene = liebody.GravityGradient(BODY, [(1.0, Table(t, orbit.position(t)))],
+                                    free_flow="axes")
+    kw = dict(L0=[L0] * 4, dt=0.1, steps=5, method=name)
+    local, local_w = _warned(lambda: liebody.integrate(scene, simd=False, **kw))
+    words = r"Body 0: the time t = -0\.0351\d* is outside the times \[0, 10\]"
+    with (distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
+                             dashboard_address=None, silence_logs=40) as client,
+          pytest.warns(RuntimeWarning, match=words) as caught):
+        got = liebody.distributed.integrate(scene, client=client, bodies_per_task=2, **kw)
+    assert [str(w.message) for w in caught] == [w[1] for w in local_w]
+    np.testing.assert_array_equal(got.status, local.status)
+    np.testing.assert_array_equal(got.failed_at, local.failed_at)
