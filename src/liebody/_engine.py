@@ -688,6 +688,8 @@ def torque_failure_words(model, state, t0, dt, u=None, i: int = 0,
     for t in _failure_times(model, t0, dt, reach):
         words = torque_failure(model, state, t, u, i)[1]
         if words is not None:
+            if model.function is None and words.startswith("the time t = "):
+                return words  # (a time outside a sampled orbit's span: named already)
             return f"{words} at t = {t:.6g}"
     return (f"the torque {model.signature} raised or returned non-finite values inside the "
             f"step from t = {t0:.6g} (well behaved at the step's start state)")

@@ -217,3 +217,26 @@ def test_distributed_tasks_of_identical_bodies_and_a_composition_past_the_table(
     assert [str(w.message) for w in caught] == [w[1] for w in local_w]
     np.testing.assert_array_equal(got.status, local.status)
     np.testing.assert_array_equal(got.failed_at, local.failed_at)
+
+
+@pytest.mark.parametrize("simd", [False, True])
+def test_an_ensemble_names_the_time_outside_the_table_once(registered, simd):
+    """The ensemble's warning names the time its composition read outside the Table
+    once (before: '... is outside the times [0, 10] ... at t = -0.0351207' again)."""
+    from liebody.orbits import Table
+
+    g = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+    name = "test_review_short_calls_ensemble_triple_jump"
+    liebody.register_composition(name, [g, 1.0 - 2.0 * g, g], base="splitting2")
+    registered.append(name)
+    t = np.linspace(0.0, 10.0, 101)
+    orbit = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
+    scene = liebody.GravityGradient(BODY, [(1.0, Table(t, orbit.position(t)))],
+                                    free_flow="axes")
+    with pytest.warns(RuntimeWarning, match=r"Body 0: the time t = -0\.0351207\d* is "
+                                            r"outside the times \[0, 10\]") as caught:
+        liebody.integrate(scene, L0=[L0] * 3, dt=0.1, steps=5, method=name, simd=simd,
+                          threads=1)
+    words = str(caught[0].message)
+    assert words.count("t = -0.0351") == 1
+    assert words.endswith("(extend the tables or shorten the run)")
