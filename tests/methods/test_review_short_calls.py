@@ -240,3 +240,18 @@ def test_an_ensemble_names_the_time_outside_the_table_once(registered, simd):
     words = str(caught[0].message)
     assert words.count("t = -0.0351") == 1
     assert words.endswith("(extend the tables or shorten the run)")
+
+
+@pytest.mark.parametrize("save_every", [None, 1, 2])
+def test_the_exact_flows_kept_call_from_alternating_clocks_equals_first_calls(save_every):
+    """The exact flow's kept call (a free body's default method) from alternating clock
+    origins: every call equals a first call on a fresh scene, its times included."""
+    scene = liebody.FreeBody(hlw_body())
+    for t0 in [2.5, -1.25, 2.5, -0.0, 0.0, np.float64(-1.25), 1e6, 2.5]:
+        kw = dict(q0=Q0, L0=L0, dt=0.01, steps=3, t0=t0, save_every=save_every)
+        got = liebody.integrate(scene, **kw)
+        same_trajectory(got, liebody.integrate(liebody.FreeBody(hlw_body()), **kw),
+                        scene=False)
+        kept = {None: [0, 3], 1: [0, 1, 2, 3], 2: [0, 2, 3]}[save_every]
+        np.testing.assert_array_equal(got.t, float(t0) + 0.01 * np.array(kept, dtype=float))
+    assert len(vars(scene)["_memo_short_calls"]) == 1
