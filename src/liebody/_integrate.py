@@ -1092,7 +1092,6 @@ class _ShortCall:
         q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
         q_out[0] = ql
         m_out[0] = m0
-        run = None
         try:
             # the initial state from the first samples: contiguous and writeable, as a
             # first call's copies (a repeated call's m0 is the caller's L0, which may be

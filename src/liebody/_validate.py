@@ -106,7 +106,7 @@ def as_float_array(name: str, value, *, last_dim: int | None = None,
     except Exception as exc:  # pragma: no cover - numpy raises many kinds
         raise TypeError(f"{name} must be array-like of real numbers: {exc}") from exc
     if arr.dtype == object and arr.size and all(
-            v.__class__ is int or v.__class__ is float for v in arr.flat):
+            isinstance(v, (int, float, np.integer, np.floating)) for v in arr.flat):
         # numpy keeps an int beyond int64 as an object (10**30 is a float64 all the same)
         try:
             arr = arr.astype(np.float64)

@@ -317,6 +317,7 @@ def test_an_integer_beyond_int64_within_float64_is_a_number():
     import liebody
 
     scene = liebody.FreeBody(liebody.RigidBody([1.0, 2.0, 3.0]))
-    a = liebody.integrate(scene, omega0=[1.0, 0.0, 10**30], dt=1e-32, steps=2, method="rk4")
+    a = liebody.integrate(scene, omega0=[np.float64(1.0), False, 10**30], dt=1e-32, steps=2,
+                          method="rk4")
     b = liebody.integrate(scene, omega0=[1.0, 0.0, 1e30], dt=1e-32, steps=2, method="rk4")
     np.testing.assert_array_equal(a.L, b.L)
