@@ -64,3 +64,14 @@ def registered():
     for name in names:
         _methods._REGISTRY.pop(name, None)
     _methods._PLANS.clear()
+
+
+@pytest.fixture
+def triple_jump(registered):
+    """The name of Yoshida's triple jump on ``splitting2``, registered for the test."""
+    from support import TRIPLE_JUMP
+
+    name = "test_triple_jump"
+    liebody.register_composition(name, TRIPLE_JUMP, base="splitting2")
+    registered.append(name)
+    return name

@@ -53,6 +53,39 @@ def same_trajectory(a: liebody.Trajectory, b: liebody.Trajectory, scene: bool = 
         assert not arr.flags.writeable
 
 
+def run_threads(targets: list[Callable[[], None]]) -> None:
+    """Run the functions in threads at once, switching threads as often as possible."""
+    import threading
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=f) for f in targets]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+    finally:
+        sys.setswitchinterval(interval)
+
+
+#: Yoshida's triple jump (1990): a composition whose stages read the times -0.35 and 1.35
+#: steps from the step's start, outside the step
+TRIPLE_JUMP = (1.0 / (2.0 - 2.0 ** (1.0 / 3.0)), 1.0 - 2.0 / (2.0 - 2.0 ** (1.0 / 3.0)),
+               1.0 / (2.0 - 2.0 ** (1.0 / 3.0)))
+
+
+def table_gravity_gradient(free_flow: str = "auto") -> liebody.GravityGradient:
+    """A gravity-gradient body under a source sampled by a ``Table`` of 101 positions on
+    ``[0, 10]`` (of a circular orbit)."""
+    from liebody.orbits import Circular, Table
+
+    t = np.linspace(0.0, 10.0, 101)
+    orbit = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
+    return liebody.GravityGradient(liebody.RigidBody([1.0, 1.7, 2.6]),
+                                   [(1.0, Table(t, orbit.position(t)))], free_flow=free_flow)
+
+
 def rotation_distance(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Max-norm distance between orientations, modulo the sign of the quaternion."""
     return np.minimum(np.abs(q1 - q2).max(axis=-1), np.abs(q1 + q2).max(axis=-1))

@@ -21,7 +21,8 @@ from numba import njit
 
 import liebody
 from liebody.errors import ConvergenceError, IntegrationError, TorqueError
-from liebody.orbits import Circular, Table
+from liebody.orbits import Circular
+from support import table_gravity_gradient
 
 ORBIT = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
 BODY = liebody.RigidBody([1.0, 1.7, 2.6])
@@ -30,8 +31,7 @@ DT = 0.1
 
 
 def _scene():
-    t = np.linspace(0.0, 10.0, 101)
-    return liebody.GravityGradient(BODY, [(1.0, Table(t, ORBIT.position(t)))])
+    return table_gravity_gradient()
 
 
 def _where(step: int, t0: float = 0.0, dt: float = DT) -> str:
@@ -202,30 +202,11 @@ def test_a_healthy_baseline_run_to_the_end_of_the_table_completes():
         assert tr.status == "complete" and tr.t[-1] == 100 * DT
 
 
-#: Yoshida's triple jump (1990) on splitting2: its stages read the orbit at t - 0.35 dt
-#: and t + 1.35 dt, outside the step
-_G = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-
-
-@pytest.fixture
-def triple_jump(registered):
-    name = "test_review_failures_triple_jump"
-    liebody.register_composition(name, [_G, 1.0 - 2.0 * _G, _G], base="splitting2")
-    registered.append(name)
-    return name
-
-
-def _axes_scene():
-    t = np.linspace(0.0, 10.0, 101)
-    return liebody.GravityGradient(BODY, [(1.0, Table(t, ORBIT.position(t)))],
-                                   free_flow="axes")
-
-
 def test_a_composition_that_reads_before_the_table_says_so(triple_jump):
     """The first step's first stage reads the orbit at -0.35 dt, before the table: the
     one-body error, the ensemble's warning and the Stepper's error say that time is
     outside the table (before: 'its parameters overflow')."""
-    scene = _axes_scene()
+    scene = table_gravity_gradient("axes")
     words = r"the time t = -0\.035\d* is outside the times \[0, 10\]"
     for steps in (5, 5000):  # a short run, and one in slices
         with pytest.raises(TorqueError, match=words) as info:
@@ -244,6 +225,6 @@ def test_a_composition_that_reads_past_the_table_says_so(triple_jump):
     """Started inside, the run fails in the step whose last stages read past t = 10."""
     with pytest.raises(TorqueError, match=r"the time t = 10\.0\d* is outside the times "
                                           r"\[0, 10\]") as info:
-        liebody.integrate(_axes_scene(), L0=L0, dt=DT, steps=200, method=triple_jump,
-                          t0=0.1)
+        liebody.integrate(table_gravity_gradient("axes"), L0=L0, dt=DT, steps=200,
+                          method=triple_jump, t0=0.1)
     assert info.value.t < 10.0 < info.value.t + 1.36 * DT

@@ -5,8 +5,6 @@ what a first call on a fresh scene gives; and the failure reports' reach."""
 from __future__ import annotations
 
 import math
-import sys
-import threading
 import warnings
 
 import numba
@@ -17,7 +15,7 @@ import liebody
 from liebody import _integrate
 from liebody.errors import IntegrationInterrupted
 from liebody.orbits import Circular
-from support import hlw_body, same_trajectory
+from support import hlw_body, run_threads, same_trajectory, table_gravity_gradient
 
 BODY = liebody.RigidBody([1.0, 1.7, 2.6])
 SOURCES = [(1.0, Circular(n=0.3, radius=2.0, inclination=0.4, phase=0.2))]
@@ -75,16 +73,7 @@ def test_threads_alternating_clocks_on_one_scene_get_their_own_runs():
                     and np.array_equal(got.L, ref[t0].L)):
                 bad.append(t0)
 
-    interval = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)  # (switch threads as often as possible)
-    try:
-        threads = [threading.Thread(target=loop, args=(p,)) for p in origins]
-        for th in threads:
-            th.start()
-        for th in threads:
-            th.join()
-    finally:
-        sys.setswitchinterval(interval)
+    run_threads([lambda p=p: loop(p) for p in origins])
     assert bad == []
 
 
@@ -171,17 +160,14 @@ def test_a_repeated_exact_call_compiles_nothing_the_first_did_not():
     assert list(exact_flow_times.signatures) == sigs
 
 
-def test_the_reach_of_a_plan_is_made_once(registered):
+def test_the_reach_of_a_plan_is_made_once(triple_jump):
     """Plan.reach (read by every long run, ensemble and Stepper) is kept on the plan; for
     Yoshida's (1990) triple jump g, 1 - 2g, g on a Strang splitting it is (1 - g, g)."""
     from liebody import _methods
 
     g = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-    name = "test_review_short_calls_triple_jump"
-    liebody.register_composition(name, [g, 1.0 - 2.0 * g, g], base="splitting2")
-    registered.append(name)
     scene = liebody.FreeBody(hlw_body())
-    plan = _methods.supported(name, scene).plan(scene, L0.copy(), 0.01)
+    plan = _methods.supported(triple_jump, scene).plan(scene, L0.copy(), 0.01)
     lo, hi = plan.reach
     assert math.isclose(lo, 1.0 - g, rel_tol=0.0, abs_tol=4e-16)
     assert math.isclose(hi, g, rel_tol=0.0, abs_tol=4e-16)
@@ -190,24 +176,16 @@ def test_the_reach_of_a_plan_is_made_once(registered):
     assert base.reach == (0.0, 1.0)
 
 
-def test_distributed_tasks_of_identical_bodies_and_a_composition_past_the_table(registered):
+def test_distributed_tasks_of_identical_bodies_and_a_composition_past_the_table(triple_jump):
     """Tasks of the same inputs (identical bodies) are one task on dask (pure keys): its
     result, shared by their futures, is read, not emptied (before: KeyError 'q' for the
     second, on an in-process cluster). A composition whose first stage reads the orbit
     before its table says so, as the local ensemble does."""
     distributed = pytest.importorskip("distributed")
     import liebody.distributed
-    from liebody.orbits import Table
 
-    g = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-    name = "test_review_short_calls_distributed_triple_jump"
-    liebody.register_composition(name, [g, 1.0 - 2.0 * g, g], base="splitting2")
-    registered.append(name)
-    t = np.linspace(0.0, 10.0, 101)
-    orbit = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
-    scene = liebody.GravityGradient(BODY, [(1.0, Table(t, orbit.position(t)))],
-                                    free_flow="axes")
-    kw = dict(L0=[L0] * 4, dt=0.1, steps=5, method=name)
+    scene = table_gravity_gradient("axes")
+    kw = dict(L0=[L0] * 4, dt=0.1, steps=5, method=triple_jump)
     local, local_w = _warned(lambda: liebody.integrate(scene, simd=False, **kw))
     words = r"Body 0: the time t = -0\.0351\d* is outside the times \[0, 10\]"
     with (distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
@@ -220,23 +198,15 @@ def test_distributed_tasks_of_identical_bodies_and_a_composition_past_the_table(
 
 
 @pytest.mark.parametrize("simd", [False, True])
-def test_an_ensemble_names_the_time_outside_the_table_once(registered, simd):
+def test_an_ensemble_names_the_time_outside_the_table_once(triple_jump, simd):
     """The ensemble's warning names the time its composition read outside the Table
     once (before: '... is outside the times [0, 10] ... at t = -0.0351207' again)."""
-    from liebody.orbits import Table
 
-    g = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-    name = "test_review_short_calls_ensemble_triple_jump"
-    liebody.register_composition(name, [g, 1.0 - 2.0 * g, g], base="splitting2")
-    registered.append(name)
-    t = np.linspace(0.0, 10.0, 101)
-    orbit = Circular(n=0.05, radius=10.0, inclination=0.2, raan=0.1, phase=0.3)
-    scene = liebody.GravityGradient(BODY, [(1.0, Table(t, orbit.position(t)))],
-                                    free_flow="axes")
+    scene = table_gravity_gradient("axes")
     with pytest.warns(RuntimeWarning, match=r"Body 0: the time t = -0\.0351207\d* is "
                                             r"outside the times \[0, 10\]") as caught:
-        liebody.integrate(scene, L0=[L0] * 3, dt=0.1, steps=5, method=name, simd=simd,
-                          threads=1)
+        liebody.integrate(scene, L0=[L0] * 3, dt=0.1, steps=5, method=triple_jump,
+                          simd=simd, threads=1)
     words = str(caught[0].message)
     assert words.count("t = -0.0351") == 1
     assert words.endswith("(extend the tables or shorten the run)")

@@ -15,7 +15,6 @@ import itertools
 import json
 import math
 import pickle
-import sys
 import textwrap
 import threading
 
@@ -27,7 +26,7 @@ import liebody
 from liebody import _engine, _stepper
 from liebody import quaternion as Q
 from liebody._kernels import batch
-from support import InterruptingClock, interrupt_child
+from support import InterruptingClock, interrupt_child, run_threads
 
 N_ENS = 300  # well above SIMD_MIN_BODIES, more than one block of 128 bodies
 assert batch.SIMD_MIN_BODIES <= 3 < N_ENS
@@ -528,16 +527,7 @@ def test_steps_from_many_threads_are_serialised(bodies):
         except Exception as exc:  # pragma: no cover - reported below
             errors.append(exc)
 
-    old = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)  # switch threads as often as possible
-    try:
-        threads = [threading.Thread(target=work) for _ in range(8)]
-        for th in threads:
-            th.start()
-        for th in threads:
-            th.join()
-    finally:
-        sys.setswitchinterval(old)
+    run_threads([work] * 8)
     assert not errors
     assert s.steps == serial.steps and s.t == serial.t
     assert math.isclose(s.t, (8 * calls + 1) * n * 1e-3, rel_tol=1e-12)
