@@ -658,8 +658,13 @@ class Stepper:
             except Exception as exc:  # the error of the failure (numerical or a torque's)
                 return exc
         new = []
-        for g, s, fresh in zip(self._groups, call["starts"], call["outcome"], strict=True):
+        for gi, (g, s, fresh) in enumerate(zip(self._groups, call["starts"], call["outcome"],
+                                               strict=True)):
             if fresh is not None and fresh.any():
+                if "words" not in call:  # (the first failed body's, before its reset)
+                    row = int(np.flatnonzero(fresh)[0])
+                    call["words"] = self._failure_words(g, row, call["d0"][gi][row],
+                                                        call["k0"])
                 g["state"][fresh] = s[fresh]
                 new.extend(g["idx"][fresh].tolist())
             if self._n is not None:
@@ -669,15 +674,11 @@ class Stepper:
         self._steps = call["steps0"] + m
         self._k = call["k0"] + m
         if new and not call.get("warned"):
-            from liebody._ensemble import REASONS
-
             call["warned"] = True
-            first = new[0]
             warnings.warn(
                 f"{self._method.name}: {len(new)} of {self._n} bodies failed in this "
-                f"step({n}) call (e.g. body {first}: "
-                f"{REASONS.get(int(self._status[first]), 'failed')}); they are left at their "
-                f"state before the call and skipped from now on (Stepper.failed)",
+                f"step({n}) call (e.g. body {new[0]}: {call['words']}); they are left at "
+                f"their state before the call and skipped from now on (Stepper.failed)",
                 RuntimeWarning, stacklevel=4)
         if not interrupted:
             return None
@@ -685,6 +686,22 @@ class Stepper:
             f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
             f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
             f"= {self._steps:,})", None, m, self.t)
+
+    def _failure_words(self, g: dict, row: int, d0: int, k0: float) -> str:
+        """Why the body of row ``row`` of group ``g`` failed, for the warning: its reason,
+        and for a torque that failed the torque's own words, asked at the body's last
+        good state (its row of ``g["state"]``) and its failing step's times."""
+        from liebody._engine import REASONS, torque_failure_words
+
+        status = int(g["status"][row])
+        reason = REASONS.get(status, "failed")
+        if status != S.STATUS_TORQUE:
+            return reason
+        i = int(g["idx"][row])
+        t_start = failed_step_times(self._t0, k0 + int(g["done"][row] - d0), self._dt)[0]
+        u = None if self._u is None else (self._u if self._u.ndim == 1 else self._u[i])
+        return f"{reason}: " + torque_failure_words(
+            self._model, g["state"][row].copy(), t_start, self._dt, u, i, g["plan"].reach)
 
     def _chunks(self, n: int) -> list[slice]:
         parts = max(1, min(self._threads, n // 64))

@@ -591,3 +591,28 @@ def test_slices_outgrow_a_fixed_cost_per_call(monkeypatch, fixed, per_step):
     assert sizes[-1] == pytest.approx(_engine.SLICE_SECONDS / per_step, rel=0.03)
     assert all(b <= _engine.SLICE_GROWTH * a for a, b in itertools.pairwise(sizes))
     assert fixed + per_step * max(sizes) <= fixed + 2 * _engine.SLICE_SECONDS
+
+
+def test_an_ensembles_failing_torque_is_named_in_its_words():
+    """The warning of an ensemble Stepper whose body's torque failed gives the torque's
+    own words at the failing step, as integrate()'s ensemble does (before: the reason
+    'torque failed' alone)."""
+    @njit
+    def refuses_big_L(t, q, L):
+        if abs(L[0]) > 1.5:
+            raise ValueError("L[0] too big")
+        return np.array([0.0, 0.0, -0.01 * L[2]])
+
+    L0 = np.array([[0.3, -1.0, 0.6], [2.0, 0.1, 0.2], [0.1, 0.2, 0.3]])
+    sc = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 2.5]), refuses_big_L)
+    words = r"raised ValueError \(L\[0\] too big\) at t = 0\.05"
+    with pytest.warns(RuntimeWarning, match=r"Body 1: the torque .*" + words):
+        liebody.integrate(sc, L0=L0, dt=0.01, steps=8, t0=0.05, method="splitting2",
+                          simd=False)
+    for simd in (False, True):
+        s = liebody.Stepper(sc, L0=L0, dt=0.01, method="splitting2", simd=simd, t0=0.05)
+        with pytest.warns(RuntimeWarning, match=r"1 of 3 bodies failed in this step\(3\) "
+                                                r"call \(e\.g\. body 1: torque failed: the "
+                                                r"torque .*" + words):
+            s.step(3)
+        np.testing.assert_array_equal(s.failed, [False, True, False])
