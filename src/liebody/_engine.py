@@ -50,6 +50,8 @@ REASONS = {S.STATUS_NONFINITE: "non-finite state",
 #: the slice: the run's start time, the steps done before the call, the steps to do, the
 #: save interval and whether the call is the run's last (the kernels' own parameters)
 T0, STEP0, N_STEPS, SAVE_EVERY, FINAL = 8, 9, 10, 11, 12
+#: where :func:`one_body_args` holds the stage parameters (a copy with the controls)
+PARAMS = 4
 
 
 def one_body_args(plan, params, merge_ends, h, t0, step0, n_steps, save_every, final, state,

@@ -58,6 +58,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     warn_invariants,
     write_controls,
 )
+from liebody._engine import PARAMS as ARG_PARAMS
 from liebody._engine import T0 as ARG_T0
 from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
 from liebody._kernels import stages as S
@@ -432,7 +433,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         raise TypeError(f"scene must be a liebody scene (FreeBody, HeavyTop, TorqueBody, "
                         f"DampedBody or a subclass of liebody.Scene), got {type(scene).__name__}")
     if (omega0 is None and t_end is None and progress is False and diagnostics is False
-            and threads is None and controls is None and simd is None
+            and threads is None and simd is None
             and dt.__class__ is float and steps.__class__ is int
             and (save_every is None or save_every.__class__ is int) and t0.__class__ is float
             and (method is None or method.__class__ is str)):
@@ -444,9 +445,11 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             call = calls.get(key)
             if call is not None:
                 start = call.start(q0, L0)
+                u = call.controls(controls)
                 # (t0 + dt == t0 refused by the general path: clock_origin)
-                if start is not None and (t0 == 0.0 or (t0 + dt != t0 and t0 - t0 == 0.0)):
-                    return call.run(scene, t0, *start)
+                if start is not None and u is not False and (
+                        t0 == 0.0 or (t0 + dt != t0 and t0 - t0 == 0.0)):
+                    return call.run(scene, t0, u, *start)
     q_init = _IDENTITY.copy() if q0 is _DEFAULT_Q0 else _as_unit_q("q0", q0)
     if q_init.ndim != 1:
         _check_batch("q0", q_init)
@@ -513,13 +516,13 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             t = _sample_times(n_steps, save_every, dt)
         if (t.shape[0] - 1 <= FIRST_SLICE if method.sampled else n_steps <= first) and not (
                 progress or diagnostics):
-            call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, u, user)
-            if key is not None and u is None and (user is None or not user.conservative):
+            call = _ShortCall(scene, method, dt, n_steps, save_every, t, model, user)
+            if key is not None and (user is None or not user.conservative):
                 calls = _memo(scene, "short_calls", dict)
                 if len(calls) >= SHORT_CALLS_KEPT:
                     calls.clear()
                 calls[key] = call
-            return call.run(scene, t0, q_init.tolist(), m_init.tolist(), m_init, q_init)
+            return call.run(scene, t0, u, q_init.tolist(), m_init.tolist(), m_init, q_init)
         run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
                    diagnostics, u, t0)
     else:
@@ -841,9 +844,9 @@ def _drive(runner, plan, args: tuple):
 class _ShortCall:
     """A one-body run of one driver call, without progress bar or diagnostics (the fixed
     cost of control loops and optimisers): :meth:`_Run.stepped` without a run object, for
-    one method, step, step count, save interval, model and controls.
+    one method, step, step count, save interval and model.
 
-    Without controls and without a user torque whose potential is called, the call is
+    Without a user torque whose potential is called, the call is
     kept on the scene (frozen) under the arguments that decided it (:func:`integrate`'s
     fast path): a repeated call then checks its initial state and time only
     (:meth:`start`; the sample times and the driver's arguments of the last start time
@@ -853,16 +856,17 @@ class _ShortCall:
     An interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it
     as a longer run would."""
 
-    __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "inertia", "keep", "last",
-                 "method", "model", "moments", "n_steps", "rotor", "save_every", "t", "u",
+    __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "inertia", "k", "keep",
+                 "last", "method", "model", "moments", "n_steps", "rotor", "save_every", "t",
                  "user")
 
     def __init__(self, scene, method, dt: float, n_steps: int, save_every: int,
-                 t: np.ndarray, model, u, user) -> None:
+                 t: np.ndarray, model, user) -> None:
         self.method, self.dt = method, dt
         self.n_steps, self.save_every, self.t = n_steps, save_every, t
         self.at = None  # (t0, the sample times t0 + t) of the last start time
-        self.model, self.u, self.user = model, u, user
+        self.model, self.user = model, user
+        self.k = scene.controls  # the number of control inputs (0: none)
         # the exact flow's moments (a free body's flow evaluated at the sample times)
         self.inertia = np.ascontiguousarray(scene.moments, dtype=np.float64) \
             if method.sampled else None
@@ -940,14 +944,43 @@ class _ShortCall:
             L0 = np.array(ml)
         return ql, ml, L0, None, owned
 
-    def run(self, scene, t0: float, ql: list, ml: list, m0: np.ndarray,
+    def controls(self, controls) -> np.ndarray | bool | None:
+        """A repeated call's controls ``u``: a new float64 ``(k,)`` array (zeros when not
+        given), ``None`` for a scene without them, or ``False`` when they take another
+        form than a float64 ``(k,)`` array or ``k`` floats or ints, finite (the rules and
+        numbers of :func:`as_controls`): the general path then checks them and says
+        why."""
+        k = self.k
+        if not k:
+            return None if controls is None else False
+        if controls is None:
+            return np.zeros(k)
+        cls = controls.__class__
+        if cls is np.ndarray:
+            if controls.shape != (k,) or controls.dtype is not F64:
+                return False
+            values = controls.tolist()
+        elif (cls is list or cls is tuple) and len(controls) == k and all(
+                v.__class__ is float or v.__class__ is int for v in controls):
+            try:
+                values = [float(v) for v in controls]
+            except OverflowError:
+                return False
+        else:
+            return False
+        for v in values:
+            if v - v != 0.0:  # (NaN or inf: the general path refuses it)
+                return False
+        return np.array(values)
+
+    def run(self, scene, t0: float, u, ql: list, ml: list, m0: np.ndarray,
             q0: np.ndarray | None = None, owned: bool = True) -> Trajectory:
-        """The run of ``scene`` from ``q0`` and ``m0`` at ``t0`` (``q0``: given by a first
-        call, whose user torque :func:`integrate` checked; a repeated call's is made from
-        the list ``ql``; ``owned``: whether ``m0`` is the run's own copy, else the
-        caller's, which a new plan must not keep); its warnings point at
-        :func:`integrate`'s caller."""
-        method, dt, u = self.method, self.dt, self.u
+        """The run of ``scene`` from ``q0`` and ``m0`` at ``t0`` under the controls ``u``
+        (``None`` for none; ``q0``: given by a first call, whose user torque
+        :func:`integrate` checked; a repeated call's is made from the list ``ql``;
+        ``owned``: whether ``m0`` is the run's own copy, else the caller's, which a new
+        plan must not keep); its warnings point at :func:`integrate`'s caller."""
+        method, dt = self.method, self.dt
         at = self.at
         # (t0 = -0.0 equals 0.0: the drivers and the torque get the caller's zero)
         if at is not None and (t0 is at[0] or (t0 == at[0] and math.copysign(
@@ -980,6 +1013,10 @@ class _ShortCall:
             if head[ARG_T0] is not t0:  # the driver's clock origin: the caller's
                 head = (*head[:ARG_T0], t0, *head[ARG_T0 + 1:])
                 self.last = (key, plan, head, tail, fn)
+            if u is not None:  # this call's controls, in a copy of the stage rows
+                params = plan.first[0].copy()
+                write_controls(params, u)
+                head = (*head[:ARG_PARAMS], params, *head[ARG_PARAMS + 1:])
         else:
             plan = method.plan(scene, m0 if owned else m0.copy(), dt)
             params = plan.first[0]

@@ -203,3 +203,52 @@ def test_a_repeated_exact_flow_call_warns_of_a_lost_phase_as_the_first(hlw):
     assert caught[0][0][2] == __file__
     assert caught[0] == caught[1] == caught[2]
     assert len(vars(scene)["_memo_short_calls"]) == 1  # (kept, and its check made)
+
+
+def test_a_controlled_loop_keeps_one_call_with_the_first_calls_numbers(hlw):
+    """A controller calling integrate() with new controls each time (array or numbers):
+    one kept call, each run the numbers of a first call with those controls on a new
+    scene (the general path)."""
+    scene, L0 = hlw
+
+    @numba.njit
+    def torque(t, q, L, u):
+        return np.array([u[0] * q[1], u[1], -u[0] * L[2]])
+
+    def controlled():
+        return liebody.ControlledBody(scene.body, torque, controls=2)
+
+    body = controlled()
+    q = liebody.quaternion.random(rng=9)
+    for k, u in enumerate([np.array([0.1, -0.2]), [0.3, 1], (0, 0.0), np.zeros(2), None]):
+        kw = dict(dt=0.05, steps=3, method="splitting2", t0=0.15 * k)
+        a = liebody.integrate(body, q0=q, L0=L0, controls=u, **kw)
+        same_trajectory(a, liebody.integrate(controlled(), q0=q, L0=L0, controls=u, **kw),
+                        scene=False)
+    assert len(vars(body)["_memo_short_calls"]) == 1
+
+
+@pytest.mark.parametrize("u, error, words", [
+    ([np.nan, 0.0], ValueError, "controls must be finite"),
+    (np.array([0.1, 0.2, 0.3]), ValueError, "controls"),
+    (np.zeros((2, 2)), ValueError, "controls"),
+    (["a", 0.0], TypeError, "controls"),
+])
+def test_a_repeated_controlled_call_refuses_bad_controls_as_the_first(hlw, u, error, words):
+    scene, L0 = hlw
+    body = liebody.ControlledBody(scene.body, numba.njit(lambda t, q, L, u: u[0] * q[1:]),
+                                  controls=2, orientation_only=True)
+    kw = dict(L0=L0, dt=0.05, steps=1, method="splitting2")
+    for _ in range(2):
+        liebody.integrate(body, controls=[0.1, 0.2], **kw)
+    with pytest.raises(error, match=words):
+        liebody.integrate(body, controls=u, **kw)
+
+
+def test_controls_for_a_scene_without_them_are_refused_on_a_repeated_call(hlw):
+    scene, L0 = hlw
+    for _ in range(2):
+        liebody.integrate(scene, L0=L0, dt=0.05, steps=1, method="splitting2")
+    with pytest.raises(ValueError, match="takes no control inputs"):
+        liebody.integrate(scene, L0=L0, dt=0.05, steps=1, method="splitting2",
+                          controls=[1.0])
