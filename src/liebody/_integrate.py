@@ -445,7 +445,7 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
             call = calls.get(key)
             if call is not None:
                 start = call.start(q0, L0)
-                u = call.controls(controls)
+                u = None if controls is None and not call.k else call.controls(controls)
                 # (t0 + dt == t0 refused by the general path: clock_origin)
                 if start is not None and u is not False and (
                         t0 == 0.0 or (t0 + dt != t0 and t0 - t0 == 0.0)):
@@ -1049,15 +1049,9 @@ class _ShortCall:
             status = None
         if status == S.STATUS_OK:
             end = state.tolist()
-            w, x, y, z, b1, b2, b3 = end
+            b1, b2, b3 = end[4:]
             if max(abs(b1), abs(b2), abs(b3)) <= MAX_MOMENTUM:
-                q_out.setflags(write=False)  # ours: no view
-                m_out.setflags(write=False)
-                traj = self._trajectory(scene, times, q_out, m_out, plan.info)
-                if self._kept(w, x, y, z, ml, b1, b2, b3):
-                    return traj
-                # a problem, or a check that needs the potential: the words
-                return warn_invariants(traj, 4, (ql, end[:4], ml, end[4:]))
+                return self._complete(scene, times, q_out, m_out, plan.info, end, ql, ml, 5)
         run = _Run(scene, method, np.array(ql) if q0 is None else q0, m0, dt, self.n_steps,
                    self.save_every, self.t, self.model, False, False, u, t0,
                    (q_out, m_out))
@@ -1077,9 +1071,15 @@ class _ShortCall:
         return run._failed(status, done, saved, state)
 
 
-    def _trajectory(self, scene, times, q_out, m_out, info: dict) -> Trajectory:
-        """A complete run's trajectory (``q_out``, ``m_out`` read-only already; ``info``
-        copied: the plan's is shared)."""
+    def _complete(self, scene, times, q_out, m_out, info: dict, end: list, ql: list,
+                  ml: list, stacklevel: int) -> Trajectory:
+        """A complete run's trajectory (``info`` copied: the plan's is shared), after the
+        end-of-run check of its last state ``end`` from ``L0 = ml``: by
+        :func:`_one_body_problems`'s rules in scalar arithmetic where they need no
+        potential, else (or when a rule is broken) :func:`warn_invariants`, whose warning
+        points ``stacklevel`` frames up (at :func:`integrate`'s caller)."""
+        q_out.setflags(write=False)  # ours: no view
+        m_out.setflags(write=False)
         fields = self.fields
         if fields is None:  # the first run: the template of the next ones
             traj = Trajectory._complete(times, q_out, m_out, scene, self.method, self.dt,
@@ -1090,7 +1090,7 @@ class _ShortCall:
             for name in ("t", "q", "L", "info", "scene"):
                 fields[name] = None
             self.fields = fields
-        else:  # Trajectory._from_fields, with the scene
+        else:  # Trajectory._complete from the template, with the scene
             traj = object.__new__(Trajectory)
             d = traj.__dict__
             d.update(fields)
@@ -1098,19 +1098,14 @@ class _ShortCall:
             d["q"] = q_out
             d["L"] = m_out
             d["scene"] = scene
-            d["info"] = info.copy()  # (the plan's is shared)
-        return traj
-
-    def _kept(self, w, x, y, z, ml, b1, b2, b3) -> bool:
-        """Whether the end state ``(w, x, y, z, b1, b2, b3)`` from ``L0 = ml`` keeps the
-        invariants by :func:`_one_body_problems`'s rules, where they need no potential
-        (else false: :func:`warn_invariants` then checks it and says why)."""
+            d["info"] = info.copy()
+        w, x, y, z, b1, b2, b3 = end
         if self.keep and abs(math.hypot(w, x, y, z) - 1.0) <= QNORM_TOL:
             a1, a2, a3 = ml
-            if not self.casimir or abs(math.hypot(b1, b2, b3) - math.hypot(
-                    a1, a2, a3)) <= CASIMIR_TOL * math.hypot(a1, a2, a3):
+            g0 = math.hypot(a1, a2, a3)
+            if not self.casimir or abs(math.hypot(b1, b2, b3) - g0) <= CASIMIR_TOL * g0:
                 if not self.energy:
-                    return True
+                    return traj
                 I1, I2, I3 = self.moments
                 if self.rotor is not None:  # a gyrostat: (L - l)^T I^-1 (L - l) / 2
                     l1, l2, l3 = self.rotor
@@ -1119,8 +1114,9 @@ class _ShortCall:
                 e0 = 0.5 * (a1 * a1 / I1 + a2 * a2 / I2 + a3 * a3 / I3)
                 e1 = 0.5 * (b1 * b1 / I1 + b2 * b2 / I2 + b3 * b3 / I3)
                 if not e0 > 0 or abs(e1 - e0) <= ENERGY_TOL * e0:
-                    return True
-        return False
+                    return traj
+        # a problem, or a check that needs the potential: the words
+        return warn_invariants(traj, stacklevel, (ql, end[:4], ml, end[4:]))
 
     def _exact(self, scene, t0, times, ql, ml, m0, q0) -> Trajectory:
         """The exact flow evaluated at the sample times (:meth:`_Run.sampled` for one call
@@ -1148,14 +1144,8 @@ class _ShortCall:
                        t0, (q_out, m_out))
             return run._failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
                                          t0 + self.t[k], stacklevel=5)
-        q_out.setflags(write=False)  # ours: no view
-        m_out.setflags(write=False)
-        traj = self._trajectory(scene, times, q_out, m_out, _NO_INFO)
-        w, x, y, z = q_out[-1].tolist()
-        b1, b2, b3 = end = m_out[-1].tolist()
-        if self._kept(w, x, y, z, ml, b1, b2, b3):
-            return traj
-        return warn_invariants(traj, 5, (ql, [w, x, y, z], ml, end))
+        return self._complete(scene, times, q_out, m_out, _NO_INFO,
+                              q_out[-1].tolist() + m_out[-1].tolist(), ql, ml, 6)
 
 
 def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
