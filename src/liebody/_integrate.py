@@ -890,6 +890,7 @@ class _ShortCall:
         the same numbers) and the method is still the registry's; else ``None``, and the
         general path checks them and says why."""
         cls = q0.__class__
+        qa = None  # q0 as an array for the user torque's check, where it is at hand
         if cls is np.ndarray:
             if q0.shape != (4,) or q0.dtype is not F64:
                 return None
@@ -900,8 +901,11 @@ class _ShortCall:
                 if not abs(n - 1.0) <= UNIT_TOL:
                     return None
                 ql = [w / n, x / n, y / n, z / n]
+            else:
+                qa = q0
         elif q0 is _DEFAULT_Q0:
             ql = [1.0, 0.0, 0.0, 0.0]
+            qa = _IDENTITY
         elif (cls is list or cls is tuple) and len(q0) == 4 and all(
                 v.__class__ is float or v.__class__ is int for v in q0):
             try:
@@ -942,7 +946,7 @@ class _ShortCall:
                 return None
         if owned:
             L0 = np.array(ml)
-        return ql, ml, L0, None, owned
+        return ql, ml, L0, qa, owned, False
 
     def controls(self, controls) -> np.ndarray | bool | None:
         """A repeated call's controls ``u``: a new float64 ``(k,)`` array (zeros when not
@@ -974,12 +978,14 @@ class _ShortCall:
         return np.array(values)
 
     def run(self, scene, t0: float, u, ql: list, ml: list, m0: np.ndarray,
-            q0: np.ndarray | None = None, owned: bool = True) -> Trajectory:
+            q0: np.ndarray | None = None, owned: bool = True,
+            checked: bool = True) -> Trajectory:
         """The run of ``scene`` from ``q0`` and ``m0`` at ``t0`` under the controls ``u``
-        (``None`` for none; ``q0``: given by a first call, whose user torque
-        :func:`integrate` checked; a repeated call's is made from the list ``ql``;
-        ``owned``: whether ``m0`` is the run's own copy, else the caller's, which a new
-        plan must not keep); its warnings point at :func:`integrate`'s caller."""
+        (``None`` for none; ``q0``: ``ql`` as an array, read only, or ``None``: made from
+        ``ql`` where needed; ``owned``: whether ``m0`` is the run's own copy, else the
+        caller's, which a new plan must not keep; ``checked``: whether :func:`integrate`
+        checked the user torque on this initial state, as a first call does); its
+        warnings point at :func:`integrate`'s caller."""
         method, dt = self.method, self.dt
         at = self.at
         # (t0 = -0.0 equals 0.0: the drivers and the torque get the caller's zero)
@@ -995,10 +1001,11 @@ class _ShortCall:
             times = np.frombuffer((t0 + self.t if t0 != 0.0 else self.t).tobytes())
             self.at = (t0, times)
         user = self.user
-        if user is not None and q0 is None:
+        if user is not None and not checked:
             # a repeated call: the torque at the initial state, in one compiled call
             model = self.model
-            q0 = np.array(ql)
+            if q0 is None:
+                q0 = np.array(ql)
             if not (_INITIAL_OK[0] if _INITIAL_OK else _initial_ok())(
                     model.address, t0, q0, m0, _NO_U if u is None else u, user.row,
                     user.promise):
