@@ -670,6 +670,12 @@ def _failure_times(model, t0: float, dt: float, reach: tuple = (0.0, 1.0)) -> li
     return times
 
 
+def widest_reach(reaches) -> tuple[float, float]:
+    """The earliest and latest of several plans' ``Plan.reach`` (``(0, 1)`` for none)."""
+    reaches = list(reaches)
+    return (min([0.0] + [r[0] for r in reaches]), max([1.0] + [r[1] for r in reaches]))
+
+
 def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0,
                        reach: tuple = (0.0, 1.0)):
     """Call the user's torque at the last good state (at the step's clock values
@@ -690,7 +696,8 @@ def torque_failure_words(model, state, t0, dt, u=None, i: int = 0,
     for t in _failure_times(model, t0, dt, reach):
         words = torque_failure(model, state, t, u, i)[1]
         if words is not None:
-            if model.function is None and words.startswith("the time t = "):
+            span = getattr(model, "span", None)
+            if model.function is None and span is not None and not span[0] <= t <= span[1]:
                 return words  # (a time outside a sampled orbit's span: named already)
             return f"{words} at t = {t:.6g}"
     return (f"the torque {model.signature} raised or returned non-finite values inside the "

@@ -37,6 +37,7 @@ from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-ex
     sample_diagnostics,
     time_slices,
     warn_invariants,
+    widest_reach,
     with_controls,
 )
 from liebody._kernels import stages as S
@@ -142,8 +143,7 @@ class EnsembleRun:
         groups = self.method.plans(self.scene, self.m0, self.dt)
         runners = [self._runner(plan) for _, plan in groups]
         self.info = groups_info(groups, runners)
-        reaches = [plan.reach for _, plan in groups]
-        self.reach = min(r[0] for r in reaches), max(r[1] for r in reaches)
+        self.reach = widest_reach(plan.reach for _, plan in groups)
         if len(groups) > 1:  # each group on contiguous rows of the samples, in this order
             self.order = np.concatenate([idx for idx, _ in groups])
             self.q_out[:, 0], self.m_out[:, 0] = self.q0[self.order], self.m0[self.order]

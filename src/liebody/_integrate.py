@@ -1059,23 +1059,22 @@ class _ShortCall:
             b1, b2, b3 = end[4:]
             if max(abs(b1), abs(b2), abs(b3)) <= MAX_MOMENTUM:
                 return self._complete(scene, times, q_out, m_out, plan.info, end, ql, ml, 5)
-        run = _Run(scene, method, np.array(ql) if q0 is None else q0, m0, dt, self.n_steps,
-                   self.save_every, self.t, self.model, False, False, u, t0,
-                   (q_out, m_out))
+        run = self._run(scene, t0, u, ql, m0, q0, q_out, m_out)
         run.info = dict(plan.info)
         run.reach = plan.reach
         if status is None:
             run._interrupted(1, 0)
         if status == S.STATUS_OK:
             return run._overflowed()
-        if status == S.STATUS_NONFINITE:
-            # :meth:`_Run._failed`'s words, said a frame nearer :func:`integrate`'s caller
-            # (its warning points there); a user torque found failing is left to it
-            t_start, t_fail = failed_step_times(t0, done, dt)
-            if self.model.function is None or _torque_is_finite(
-                    self.model, state, (t_start, t_start + 0.5 * dt, t_start + dt), u):
-                return run._failed_nonfinite(1 + saved, done, t_start, t_fail)
         return run._failed(status, done, saved, state)
+
+    def _run(self, scene, t0, u, ql, m0, q0, q_out, m_out) -> _Run:
+        """The run object that reports an outcome other than a complete run, as a longer
+        run's (its warnings point at :func:`integrate`'s caller from a method of
+        :class:`_ShortCall` called by :meth:`run`)."""
+        return _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
+                    self.n_steps, self.save_every, self.t, self.model, False, False, u, t0,
+                    (q_out, m_out))
 
 
     def _complete(self, scene, times, q_out, m_out, info: dict, end: list, ql: list,
@@ -1139,16 +1138,11 @@ class _ShortCall:
             (_EXACT[0] if _EXACT else _exact_flow_times())(self.inertia, q_out[0], m_out[0],
                                                           self.t[1:], q_out[1:], m_out[1:])
         except KeyboardInterrupt:
-            run = _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
-                       self.n_steps, self.save_every, self.t, self.model, False, False, None,
-                       t0, (q_out, m_out))
-            run._interrupted(1, 0)
+            self._run(scene, t0, None, ql, m0, q0, q_out, m_out)._interrupted(1, 0)
         if not math.isfinite(float(q_out.sum()) + float(m_out.sum())):
             bad = ~(np.isfinite(q_out).all(axis=1) & np.isfinite(m_out).all(axis=1))
             k = int(np.argmax(bad))
-            run = _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
-                       self.n_steps, self.save_every, self.t, self.model, False, False, None,
-                       t0, (q_out, m_out))
+            run = self._run(scene, t0, None, ql, m0, q0, q_out, m_out)
             return run._failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
                                          t0 + self.t[k], stacklevel=5)
         return self._complete(scene, times, q_out, m_out, _NO_INFO,

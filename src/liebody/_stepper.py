@@ -259,6 +259,7 @@ class Stepper:
         self._fast = False
         if self._method.sampled:  # (an ensemble's: no SIMD kernel, as integrate() says)
             self.info: dict = {} if self._n is None else {"simd": False}
+            self._reach = (0.0, 1.0)
             self._plan_m = None
             return
         from liebody._kernels.driver import RUNNERS
@@ -488,10 +489,15 @@ class Stepper:
                 break
             except KeyboardInterrupt:
                 continue
-        raise IntegrationInterrupted(
+        raise self._interruption(n, m) from None
+
+    def _interruption(self, n: int, m: int) -> IntegrationInterrupted:
+        """The error of a ``step(n)`` call that Ctrl-C stopped after ``m`` of its steps,
+        the stepper left as ``step(m)`` would have left it."""
+        return IntegrationInterrupted(
             f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
             f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
-            f"= {self._steps:,})", None, m, self.t) from None
+            f"= {self._steps:,})", None, m, self.t)
 
     def _raise(self, status: int, done: int, state: np.ndarray):
         """The error of a failed step, after ``done`` good steps of this call from the
@@ -509,7 +515,7 @@ class Stepper:
             if status == S.STATUS_TORQUE or not _torque_is_finite(
                     self._model, state, (t0, t0 + 0.5 * dt, t0 + dt), self._u):
                 raise_torque_error(self._model, name, where, state, t0, dt, None, done,
-                                   self._u, reach=getattr(self, "_reach", (0.0, 1.0)))
+                                   self._u, reach=self._reach)
         if status == S.STATUS_NONFINITE:
             raise IntegrationError(f"{name}: the state became non-finite {where}", None, done,
                                    t0)
@@ -682,10 +688,7 @@ class Stepper:
                 RuntimeWarning, stacklevel=4)
         if not interrupted:
             return None
-        return IntegrationInterrupted(
-            f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
-            f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
-            f"= {self._steps:,})", None, m, self.t)
+        return self._interruption(n, m)
 
     def _failure_words(self, g: dict, row: int, d0: int, k0: float) -> str:
         """Why the body of row ``row`` of group ``g`` failed, for the warning: its reason,

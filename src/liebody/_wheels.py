@@ -563,10 +563,7 @@ class WheelStepper(Stepper):
                         self._wheels = before
                         self._write()
                     m = done + exc.step  # (the steps of this call, not of its piece)
-                    raise IntegrationInterrupted(
-                        f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the "
-                        f"stepper is left after them, as step({m:,}) would have left it (t "
-                        f"= {self.t:.6g}, steps = {self._steps:,})", None, m, self.t) from None
+                    raise self._interruption(n, m) from None
                 except BaseException:
                     self._wheels = before
                     self._write()
@@ -633,7 +630,6 @@ class WheelStepper(Stepper):
         dropped, the failures of the last piece taken, a step left merged at a piece's end
         completed (the call's next step, unmerged for every body), then raise. Every part
         can be repeated (a second Ctrl-C runs it again)."""
-        from liebody.errors import IntegrationInterrupted
 
         while True:
             try:
@@ -652,11 +648,7 @@ class WheelStepper(Stepper):
                 self._advance(1, None, carry=True)
             except KeyboardInterrupt:
                 continue
-        m = self._steps - steps0
-        raise IntegrationInterrupted(
-            f"Stepper.step({n:,}) interrupted after {m:,} of {n:,} steps; the stepper is "
-            f"left after them, as step({m:,}) would have left it (t = {self.t:.6g}, steps "
-            f"= {self._steps:,})", None, m, self.t) from None
+        raise self._interruption(n, self._steps - steps0) from None
 
     def _fail(self, handled: np.ndarray, start: dict) -> bool:
         """The bodies that failed in this call and are not yet ``handled``: left at their

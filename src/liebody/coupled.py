@@ -36,7 +36,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from liebody._engine import failed_step_times, failed_step_words
-from liebody._validate import as_float_array, as_positive_float, as_unit_quaternion
+from liebody._validate import (
+    as_float_array,
+    as_positive_float,
+    as_unit_quaternion,
+    clock_origin,
+)
 from liebody.errors import (
     ConvergenceError,
     IntegrationInterrupted,
@@ -874,8 +879,6 @@ class CoupledStepper:
     def __init__(self, scene, *, q0=(1.0, 0.0, 0.0, 0.0), L0=None, omega0=None, dt,
                  method=None, t0: float = 0.0) -> None:
         from liebody import _methods
-        from liebody._validate import clock_origin
-
         self._scene = scene
         self._dt = as_positive_float("dt", dt)
         t0 = clock_origin("t0", t0, self._dt)
@@ -906,8 +909,6 @@ class CoupledStepper:
 
     @t.setter
     def t(self, value) -> None:
-        from liebody._validate import clock_origin
-
         self._t0 = clock_origin("t", value, self._dt)
         self._k = 0
 

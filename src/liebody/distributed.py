@@ -368,7 +368,7 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
     bodies come from the records (``status``, ``failed_at``), the warnings about them
     and about the invariants are made for the whole ensemble; any other warning a task
     emitted is passed on once."""
-    from liebody._engine import failure_summary
+    from liebody._engine import failure_summary, widest_reach
     from liebody._integrate import warn_invariants
     from liebody.errors import InvariantWarning
     from liebody.trajectory import Trajectory
@@ -390,9 +390,8 @@ def _finish(call: _Call, q, L, records: list, stacklevel: int):
                 warnings.warn(message, category, stacklevel=stacklevel + 1)
     states = (None if any(r["state"] is None for r in records)
               else np.concatenate([r["state"] for r in records]))
-    reach = (min([0.0] + [r.get("reach", (0.0, 1.0))[0] for r in records]),
-             max([1.0] + [r.get("reach", (0.0, 1.0))[1] for r in records]))
-    message = failure_summary(name, status, failed_at, call.dt, model, states, call.u, reach)
+    message = failure_summary(name, status, failed_at, call.dt, model, states, call.u,
+                              widest_reach(r["reach"] for r in records))
     if message:
         warnings.warn(message, RuntimeWarning, stacklevel=stacklevel + 1)
     diag = None
