@@ -26,8 +26,9 @@ Newton solver and the baselines, and a free body's RATTLE compiles no kick. A ki
 outside the family stops the run with ``STATUS_BAD_STAGE`` (the Python side never
 builds such a plan).
 
-The state lives in seven local scalars inside the loop: nothing is allocated per
-step. The loop stops at the first non-finite state, failed implicit solve or failing
+The state lives in seven local scalars inside the loop (and their seven low-order
+parts across a step's gyrostat turns, ``flows.axis_flow_carried``): nothing is allocated
+per step. The loop stops at the first non-finite state, failed implicit solve or failing
 torque and returns how far it got, so the caller can report it.
 """
 
@@ -41,10 +42,12 @@ from liebody._kernels._jit import jit, overload_options
 from liebody._kernels.exact import exact_flow
 from liebody._kernels.flows import (
     axis_flow,
+    axis_flow_carried,
     axis_flow_recurring,
     axis_flow_shifted,
     dmv_step,
     euler_step,
+    fold_carried,
     lie_euler_step,
     rk4_step,
     rkmk4_step,
@@ -382,6 +385,11 @@ def _runner(family: int, diag: bool = False):
         until_save = ctl[0]  # countdown: no integer division in the loop
         pending = ctl[1] != 0  # first stage of this step already applied
         n_saved = 0
+        # the trailing parts of the state carried between a step's gyrostat turns
+        # (AXIS_SHIFTED: flows.axis_flow_carried), added in at the step's end or before any
+        # other stage (flows.fold_carried); zero, and carried false, between steps
+        ew, ex, ey, ez, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        carried = False
         for step in range(n_steps):
             gw, gx, gy, gz, g1, g2, g3 = w, x, y, z, m1, m2, m3  # last good state
             status = STATUS_OK
@@ -400,6 +408,11 @@ def _runner(family: int, diag: bool = False):
                     tau = (coefs[last] + coefs[0]) * h
                 kind = kinds[j]
                 sj = slots[j]  # its row of params
+                if carried and kind != AXIS_SHIFTED:
+                    w, x, y, z, m1, m2, m3 = fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey,
+                                                          ez, e1, e2, e3)
+                    ew, ex, ey, ez, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                    carried = False
                 # the stage: the branches of this driver's family only survive compilation
                 if family == F_AXES:
                     r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[sj, P_RATE], tau)
@@ -428,10 +441,13 @@ def _runner(family: int, diag: bool = False):
                         span = clock[j] * h
                         if j == last and merge:
                             span = (clock[last] + clock[0]) * h
-                        r = axis_flow_shifted(w, x, y, z, m1, m2, m3, axes[j],
-                                              params[sj, P_RATE],
-                                              rotor_at(params[sj], axes[j], t + 0.5 * span), tau)
+                        rotor = rotor_at(params[sj], axes[j], t + 0.5 * span)
+                        r = axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2,
+                                              e3, axes[j], params[sj, P_RATE], rotor, tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
+                        ew, ex, ey, ez, e1, e2, e3 = r[7], r[8], r[9], r[10], r[11], r[12], r[13]
+                        if rotor != 0.0:  # (a zero rotor: the rigid body's turn, nothing carried)
+                            carried = True
                     else:
                         r = sphere_flow(w, x, y, z, m1, m2, m3, params[sj, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
@@ -480,6 +496,11 @@ def _runner(family: int, diag: bool = False):
                 if status != STATUS_OK:
                     break
                 t += clock[j] * h
+            if carried:  # the step's end: its turns' trailing parts added in, once
+                w, x, y, z, m1, m2, m3 = fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez,
+                                                      e1, e2, e3)
+                ew, ex, ey, ez, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                carried = False
             if status == STATUS_OK:
                 pending = merge
                 acc = w + x + y + z + m1 + m2 + m3

@@ -125,7 +125,8 @@ def axis_flow_shifted(w, x, y, z, m1, m2, m3, axis, rate, shift, tau):
     more (:data:`COMPENSATED_TURN`) is evaluated error-free (:func:`_turn_compensated`). A
     zero ``shift`` is the rigid body's term and takes :func:`axis_flow`'s arithmetic, so
     that a rotor-free body of a gyrostat ensemble equals its one-body (rigid) run bit for
-    bit.
+    bit. The splitting drivers run :func:`axis_flow_carried` instead, which rounds once
+    per step rather than once per turn; this one is the generic family's.
     """
     half = 0.5 * tau * rate * (component(axis, m1, m2, m3) - shift)
     if shift == 0.0:  # the rigid body's term: its flow, bit for bit (ensembles mix them)
@@ -238,6 +239,149 @@ def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
         py, pz = _dot2(c2, y, -s2, x), _dot2(c2, z, s2, w)
     return (pw[0] + (pw[1] + k * pw[0]), px[0] + (px[1] + k * px[0]),
             py[0] + (py[1] + k * py[0]), pz[0] + (pz[1] + k * pz[0]), m1, m2, m3)
+
+
+@jit
+def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, rate, shift,
+                      tau):
+    """:func:`axis_flow_shifted` on a state carried in double length, ``q + eq`` and ``m + em``
+    (leading parts ``w .. m3``, trailing parts ``ew .. e3``): the turned state in the same
+    form, fourteen numbers, the trailing parts of the order of an ulp of the leading ones.
+
+    The driver carries the trailing parts from turn to turn within a step and adds them in
+    once, at the step's end or before a stage of another kind (:func:`fold_carried`), so a
+    step of several turns rounds each component about once instead of once per turn
+    (error-free products and sums: Ogita, Rump & Oishi 2005). ``q`` is multiplied by the
+    rounded pair's ``(c, s e_k)`` (its norm is left to the fold) and ``m`` turned by that
+    quaternion's rotation, so that the two turn by the same angle to far below round-off.
+    A small turn (``half^2 <`` :data:`COMPENSATED_TURN`) takes the pair from the polynomial
+    :func:`~liebody._kernels.trig.sincos_turn` in increment form (``c = 1 + cm``), the
+    leading terms ``s q_j`` and ``2 s m_j`` as exact products, the rest (of order
+    ``half^2``) rounded, and ``m``'s rotation divided by the pair's norm ``1 + dn``
+    (``dn``, of the order of ``eps half^2``, computed exactly: without it the polynomial's
+    smooth norm error turned ``m`` against ``q`` by a bias of order ``eps half^3`` a turn);
+    a larger turn takes libm's pair with :func:`_turn_compensated`'s arithmetic. The
+    trailing parts are turned in plain arithmetic (their rounding is of order ``eps^2``).
+    A zero ``shift`` is the rigid body's term: the leading parts take :func:`axis_flow`'s
+    arithmetic, bit for bit (the trailing ones, zero unless an earlier turn of the step had
+    a rotor, are turned by its pair), so that a rotor-free body of a gyrostat ensemble
+    equals its one-body (rigid) run bit for bit.
+    """
+    half = 0.5 * tau * rate * (component(axis, m1, m2, m3) - shift)
+    if axis == 0:
+        a, b, ea, eb = m2, m3, e2, e3
+    elif axis == 1:
+        a, b, ea, eb = m3, m1, e3, e1
+    else:
+        a, b, ea, eb = m1, m2, e1, e2
+    # q (c, s e_k) = c q + s (pw, px, py, pz): the partners of w, x, y, z in the product
+    pw, px, py, pz = _turn_partners(axis, w, x, y, z)
+    fw, fx, fy, fz = _turn_partners(axis, ew, ex, ey, ez)
+    if shift == 0.0:  # the rigid body's term: its flow, bit for bit (ensembles mix them)
+        if half * half < COMPENSATED_TURN:
+            s2, c2, cm2 = sincos_turn(half)
+        else:
+            s2 = math.sin(half)
+            c2 = math.cos(half)
+            cm2 = c2 - 1.0
+        w, x, y, z, m1, m2, m3 = _turn_increment(w, x, y, z, m1, m2, m3, axis, s2, c2, cm2)
+        cm = -2.0 * s2 * s2
+        s = 2.0 * s2 * c2
+        ea, eb = ea + (cm * ea + s * eb), eb + (cm * eb - s * ea)
+        ew, ex = ew + (cm2 * ew + s2 * fw), ex + (cm2 * ex + s2 * fx)
+        ey, ez = ey + (cm2 * ey + s2 * fy), ez + (cm2 * ez + s2 * fz)
+        a, b = (m2, m3) if axis == 0 else ((m3, m1) if axis == 1 else (m1, m2))
+    elif half * half < COMPENSATED_TURN:
+        s2, c2, cm2 = sincos_turn(half)
+        # m turned by the rotation of q's factor (1 + cm2, s2 e_k), whatever its norm
+        # 1 + dn: a + (s b + s r) / (1 + dn) with r = cm2 b - s2 a, and b - (s a - s r') /
+        # (1 + dn) with r' = -(cm2 a + s2 b), s = 2 s2 (exact); dn = 2 cm2 + cm2^2 + s2^2,
+        # of the order of eps s2^2, from an exact product and sum (2 cm2 + s2^2 is exact:
+        # Sterbenz), so that the polynomial's own norm error turns m and q alike
+        ps = s2 * s2
+        dn = (ps + 2.0 * cm2) + (fma(s2, s2, -ps) + cm2 * cm2)
+        s = 2.0 * s2
+        ra = cm2 * b - s2 * a
+        rb = -(cm2 * a + s2 * b)
+        na, fa = _carried_add(a, ea, s, b, s * (ra - dn * (b + ra)), s * (eb - s2 * ea))
+        b, eb = _carried_add(b, eb, -s, a, s * (rb + dn * (a - rb)), -s * (ea + s2 * eb))
+        a, ea = na, fa
+        # q (1 + cm2, s2 e_k) = q + s2 p + cm2 q
+        w, ew = _carried_add(w, ew, s2, pw, cm2 * w, cm2 * ew + s2 * fw)
+        x, ex = _carried_add(x, ex, s2, px, cm2 * x, cm2 * ex + s2 * fx)
+        y, ey = _carried_add(y, ey, s2, py, cm2 * y, cm2 * ey + s2 * fy)
+        z, ez = _carried_add(z, ez, s2, pz, cm2 * z, cm2 * ez + s2 * fz)
+    else:
+        s2 = math.sin(half)
+        c2 = math.cos(half)
+        hc, lc = _two_product(c2, c2)
+        hs, ls = _two_product(s2, s2)
+        nn, en = _two_sum(hc, hs)
+        d = (nn - 1.0) + (en + (lc + ls))  # c^2 + s^2 - 1 (nn - 1 exact: Sterbenz)
+        ch, e = _two_sum(hc, -hs)
+        cl = (e + (lc - ls)) - d * ch  # (c^2 - s^2) / (1 + d) = ch + cl
+        sc, lsc = _two_product(s2, c2)
+        sh = 2.0 * sc
+        sl = 2.0 * lsc - d * sh  # 2 c s / (1 + d) = sh + sl
+        ha, la = _dot2(ch, a, sh, b)
+        hb, lb = _dot2(ch, b, -sh, a)
+        ea, eb = (la + (cl * a + sl * b)) + (ch * ea + sh * eb), \
+            (lb + (cl * b - sl * a)) + (ch * eb - sh * ea)
+        a, b = ha, hb
+        k = -0.5 * d  # 1 / |(c, s)| - 1, to first order
+        w, ew = _carried_dot(c2, w, s2, pw, k, ew, fw)
+        x, ex = _carried_dot(c2, x, s2, px, k, ex, fx)
+        y, ey = _carried_dot(c2, y, s2, py, k, ey, fy)
+        z, ez = _carried_dot(c2, z, s2, pz, k, ez, fz)
+    if axis == 0:
+        m2, m3, e2, e3 = a, b, ea, eb
+    elif axis == 1:
+        m3, m1, e3, e1 = a, b, ea, eb
+    else:
+        m1, m2, e1, e2 = a, b, ea, eb
+    return w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3
+
+
+@jit(inner=True)
+def _turn_partners(axis, w, x, y, z):
+    """``q (c, s e_k) = c q + s (pw, px, py, pz)``: the partners ``(pw, px, py, pz)``."""
+    if axis == 0:
+        return -x, w, z, -y
+    if axis == 1:
+        return -y, -z, w, x
+    return -z, y, -x, w
+
+
+@jit(inner=True)
+def _carried_add(v, ev, s, p, rest, erest):
+    """``(v + ev) + (s p + rest) + erest`` in double length: the increment ``s p + rest``
+    (``rest`` small against ``s p``) rounded once and its rounding kept, ``s p - inc`` being
+    of the order of ``rest`` (``erest``: the trailing parts' own terms)."""
+    inc = fma(s, p, rest)
+    hv, t = _two_sum(v, inc)
+    return hv, ev + ((t + (fma(s, p, -inc) + rest)) + erest)
+
+
+@jit(inner=True)
+def _carried_dot(c, v, s, p, k, ev, fp):
+    """``(1 + k) (c (v + ev) + s (p + fp))`` in double length (``k`` of order ``eps``)."""
+    h, e = _dot2(c, v, s, p)
+    return h, (e + k * h) + (c * ev + s * fp)
+
+
+@jit
+def fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3):
+    """Add the trailing parts of a carried state (:func:`axis_flow_carried`) into its leading
+    parts, each component rounded once; ``q`` is scaled onto the unit sphere on the way once
+    the computed ``| |q + eq|^2 - 1 |`` passes :data:`UNIT_SLACK` (``|q|`` stays within a few
+    ulps of 1 instead of a random walk, which ``R(q) m`` would double, and the scaling adds
+    no rounding). Scaling at every fold instead made the spatial ``L`` drift (measured in
+    docs/design.md)."""
+    d = (((w * w + x * x) + (y * y + z * z)) - 1.0) + 2.0 * ((w * ew + x * ex) + (y * ey + z * ez))
+    if abs(d) > UNIT_SLACK:
+        k = -0.5 * d
+        ew, ex, ey, ez = ew + k * w, ex + k * x, ey + k * y, ez + k * z
+    return w + ew, x + ex, y + ey, z + ez, m1 + e1, m2 + e2, m3 + e3
 
 
 @jit
