@@ -241,7 +241,7 @@ def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
             py[0] + (py[1] + k * py[0]), pz[0] + (pz[1] + k * pz[0]), m1, m2, m3)
 
 
-@jit
+@jit(inner=True)
 def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, rate, shift,
                       tau):
     """:func:`axis_flow_shifted` on a state carried in double length, ``q + eq`` and ``m + em``
@@ -369,7 +369,7 @@ def _carried_dot(c, v, s, p, k, ev, fp):
     return h, (e + k * h) + (c * ev + s * fp)
 
 
-@jit
+@jit(inner=True)
 def fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3):
     """Add the trailing parts of a carried state (:func:`axis_flow_carried`) into its leading
     parts, each component rounded once; ``q`` is scaled onto the unit sphere on the way once
