@@ -258,8 +258,8 @@ def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, 
     :func:`~liebody._kernels.trig.sincos_turn` in increment form (``c = 1 + cm``), the
     leading terms ``s q_j`` and ``2 s m_j`` as exact products, the rest (of order
     ``half^2``) rounded, and ``m``'s rotation divided by the pair's norm ``1 + dn``
-    (``dn``, of the order of ``eps half^2``, computed exactly: without it the polynomial's
-    smooth norm error turned ``m`` against ``q`` by a bias of order ``eps half^3`` a turn);
+    (``dn`` computed exactly), so that ``m`` turns by ``q``'s angle whatever the
+    polynomial's norm error (which is smooth in the angle: a bias, were it left in);
     a larger turn takes libm's pair with :func:`_turn_compensated`'s arithmetic. The
     trailing parts are turned in plain arithmetic (their rounding is of order ``eps^2``).
     A zero ``shift`` is the rigid body's term: the leading parts take :func:`axis_flow`'s
