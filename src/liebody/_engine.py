@@ -8,17 +8,20 @@ they run the kernels the same way; this module imports none of them.
 
 from __future__ import annotations
 
-import contextlib
+import itertools
 import math
 import os
+import signal
+import threading
 import time
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
 from liebody._kernels import stages as S
 from liebody._plan import body_rows
-from liebody.errors import InvariantWarning, TorqueError
+from liebody.errors import ConvergenceError, InvariantWarning, TorqueError
 from liebody.scenes import _memo as memo
 from liebody.trajectory import Trajectory
 
@@ -30,11 +33,18 @@ SLICE_GROWTH = 16
 FIRST_SLICE = 4096
 #: the same for a user torque, whose cost per call is unknown
 USER_FIRST_SLICE = 16
+#: a run of at most this many samples is checked for finite numbers in Python floats
+SHORT_TIMES_SAMPLES = 64
 
 #: tolerances of the end-of-run check (InvariantWarning)
 QNORM_TOL = 1e-6  # | |q| - 1 |, any method
 CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
 ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
+
+#: what :class:`interrupt_after_call` needs (a POSIX signal mask; the main thread)
+_MASK = getattr(signal, "pthread_sigmask", None)
+_MAIN = threading.main_thread()
+_SIGINT = {signal.SIGINT}
 
 #: the largest |L| a run accepts or keeps: |L|^2 / (2 I) overflows float64 near 1e154
 MAX_MOMENTUM = 1e150
@@ -44,6 +54,26 @@ REASONS = {S.STATUS_NONFINITE: "non-finite state",
            S.STATUS_NO_CONVERGENCE: "DMV equation not solved",
            S.STATUS_KICK_NO_CONVERGENCE: "implicit kick not solved",
            S.STATUS_TORQUE: "torque failed"}
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A body's failure, as the run's records hold it: the body (``None``: a one-body
+    call's), the driver's status, the good steps before the failing one (counted from the
+    run's start, or the call's for a :class:`liebody.Stepper`), the failing step's start
+    ``t`` and end ``failed_at``, and the body's last good state ``(q, L)`` (7 numbers)."""
+
+    body: int | None
+    status: int
+    step: int
+    t: float
+    failed_at: float
+    state: np.ndarray
+
+    @property
+    def reason(self) -> str:
+        """Why, in words (:data:`REASONS`)."""
+        return REASONS.get(self.status, "unknown")
 
 
 #: where both argument lists (:func:`one_body_args`, :func:`batch_args`) hold the clock and
@@ -119,6 +149,30 @@ def resolve_threads(threads) -> int:
     return int(threads)
 
 
+def batch_runner(plan, code: int, n: int, simd, diagnostics: bool = False):
+    """The batch driver of an ensemble's plan (``n`` bodies, torque model ``code``) and
+    whether it is the SIMD one: the SIMD driver where ``simd`` allows it (``None``: for at
+    least ``SIMD_MIN_BODIES`` bodies) and it supports the plan and the model, else the
+    one-body loop per body. :func:`liebody.integrate` and the :class:`liebody.Stepper`
+    choose by this rule, so that they run the same kernel."""
+    from liebody._kernels import batch
+    from liebody._kernels.batch_drivers import BATCH_RUNNERS, DIAG_BATCH_RUNNERS
+
+    wanted = simd is not False and (simd or n >= batch.SIMD_MIN_BODIES)
+    if wanted and batch.simd_supports(plan, code):
+        return batch.SIMD_RUNNERS[(plan.family, bool(diagnostics))], True
+    return (DIAG_BATCH_RUNNERS if diagnostics else BATCH_RUNNERS)[plan.family], False
+
+
+def body_chunks(n: int, threads: int) -> list[slice]:
+    """Contiguous chunks of ``n`` bodies, one per thread (at least 64 bodies each)."""
+    if n < 128 or threads <= 1:
+        return [slice(0, n)]  # (one chunk, at once)
+    parts = max(1, min(threads, n // 64))
+    edges = np.linspace(0, n, parts + 1).round().astype(int)
+    return [slice(int(a), int(b)) for a, b in itertools.pairwise(edges) if b > a]
+
+
 def failed_step_times(t0: float, step: int, dt: float) -> tuple[float, float]:
     """The start and the end of a run's failing step, after ``step`` good steps from
     ``t0``: ``IntegrationError.t`` (the time of the last good state) and
@@ -178,34 +232,31 @@ def first_slice(model) -> int:
     return USER_FIRST_SLICE if model.function is not None else FIRST_SLICE
 
 
-@contextlib.contextmanager
-def interrupt_after_call():
+class interrupt_after_call:
     """Hold Ctrl-C (SIGINT) back during a kernel call and deliver it after the block, so
     that the call's results (steps done, samples saved) are stored before
     ``KeyboardInterrupt`` is raised: a finished slice is kept, not discarded. In the main
     thread of a POSIX process; elsewhere a plain block (Python sees Ctrl-C between calls
-    anyway)."""
-    import signal
-    import threading
+    anyway). (A class, not a generator: a microsecond a slice.)"""
 
-    if (threading.current_thread() is not threading.main_thread()
-            or not hasattr(signal, "pthread_sigmask")):
-        yield
-        return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    __slots__ = ("old",)
+
+    def __enter__(self) -> None:
+        self.old = None
+        if _MASK is not None and threading.current_thread() is _MAIN:
+            self.old = _MASK(signal.SIG_BLOCK, _SIGINT)
+
+    def __exit__(self, *exc) -> bool:
+        if self.old is not None:
+            _MASK(signal.SIG_SETMASK, self.old)
+        return False
 
 
 def block_interrupts() -> None:
     """Block SIGINT in the calling (worker) thread, so that Ctrl-C is delivered to the
     main thread, where :func:`interrupt_after_call` holds it until a slice is counted."""
-    import signal
-
-    if hasattr(signal, "pthread_sigmask"):
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    if _MASK is not None:
+        _MASK(signal.SIG_BLOCK, _SIGINT)
 
 
 def time_slices(total: int, progress: bool, unit: str, first: int = FIRST_SLICE):
@@ -676,18 +727,64 @@ def widest_reach(reaches) -> tuple[float, float]:
     return (min([0.0] + [r[0] for r in reaches]), max([1.0] + [r[1] for r in reaches]))
 
 
-def raise_torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0,
-                       reach: tuple = (0.0, 1.0)):
+def torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int = 0,
+                 reach: tuple = (0.0, 1.0)) -> TorqueError:
     """Call the user's torque at the last good state (at the step's clock values
     ``t0``, ``t0 + dt/2``, ``t0 + dt``, and where its stages ``reach`` outside the step)
-    to raise its own error, chained; ``traj`` (or ``None``) goes on the error."""
+    for its own error: the :class:`TorqueError` to raise, the torque's exception as its
+    cause; ``traj`` (or ``None``) goes on it."""
     for t in _failure_times(model, t0, dt, reach):
         exc, words = torque_failure(model, state, t, u, i)
         if words is not None:
-            raise TorqueError(f"{name}: {words} {where}", traj, step, t0) from exc
-    raise TorqueError(f"{name}: the torque {model.signature} raised or returned non-finite "
-                      f"values inside the step {where} (it is well behaved at the step's "
-                      f"start state)", traj, step, t0)
+            error = TorqueError(f"{name}: {words} {where}", traj, step, t0)
+            if exc is not None:
+                error.__cause__ = exc
+            return error
+    return TorqueError(f"{name}: the torque {model.signature} raised or returned non-finite "
+                       f"values inside the step {where} (it is well behaved at the step's "
+                       f"start state)", traj, step, t0)
+
+
+def failure_error(name: str, scene, model, failure: Failure, dt: float, where: str, traj,
+                  u=None, reach: tuple = (0.0, 1.0)) -> Exception | None:
+    """The error of one body's ``failure`` in a run of the method ``name`` (``where``: the
+    words that place it; ``traj``: the samples before it, or ``None``): a user torque's
+    :class:`TorqueError` (asked why at the failing step's times, also for a non-finite
+    state inside a step whose torque misbehaves there), a :class:`ConvergenceError` for an
+    implicit equation, ``None`` for a non-finite state of the dynamics (a blow-up, which
+    the caller reports: :func:`liebody.integrate` returns the samples with a warning)."""
+    status, state, t0, step = failure.status, failure.state, failure.t, failure.step
+    i = failure.body or 0
+    if status == S.STATUS_NONFINITE:
+        # a user torque that fails inside a baseline's step at a state other than its
+        # start (the driver asks it there) shows as a non-finite state: ask the torque
+        # at the step's clock values before blaming the dynamics
+        if model.function is None or _torque_is_finite(
+                model, state, (t0, t0 + 0.5 * dt, t0 + dt), u, i):
+            return None
+        status = S.STATUS_TORQUE
+    if status == S.STATUS_TORQUE:
+        return torque_error(model, name, where, state, t0, dt, traj, step, u, i, reach)
+    if status == S.STATUS_NO_CONVERGENCE:
+        w = float(np.max(np.abs(state[4:] / np.asarray(scene.moments, dtype=float))))
+        return ConvergenceError(
+            f"{name}: the implicit DMV (RATTLE) equation has no solution {where}. "
+            f"h |omega| = {dt * w:.3g} there; the physical root exists up to about 1: "
+            f"reduce dt below about {0.7 / w:.3g}", traj, step, t0)
+    if status == S.STATUS_KICK_NO_CONVERGENCE:
+        stiff = torque_stiffness(model, state, t0, u, i)
+        return ConvergenceError(
+            f"{name}: the implicit kick of the momentum-dependent torque did not "
+            f"converge {where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; "
+            f"reduce dt, or check that the torque is smooth in L", traj, step, t0)
+    from liebody._kernels._jit import cache_advice
+
+    return RuntimeError(
+        f"{name}: the driver returned status {status}, which no driver returns for a "
+        f"plan it can run. Either numba's disk cache gave this process another "
+        f"kernel's compiled code (a damaged or mixed-up cache: {cache_advice()}), or "
+        f"the method's recipe holds a stage its driver does not run (a bug: please "
+        f"report it if a fresh cache does not help)")
 
 
 def torque_failure_words(model, state, t0, dt, u=None, i: int = 0,

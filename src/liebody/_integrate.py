@@ -37,6 +37,7 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     FIRST_SLICE,
     MAX_MOMENTUM,
     QNORM_TOL,
+    SHORT_TIMES_SAMPLES,
     SLICE_SECONDS,
     USER_FIRST_SLICE,
     _end_potentials,
@@ -52,7 +53,6 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
     interrupt_after_call,
     one_body_arg_ends,
     one_body_args,
-    raise_torque_error,
     time_slices,
     torque_stiffness,
     warn_invariants,
@@ -60,7 +60,18 @@ from liebody._engine import (  # noqa: F401 - re-exported: the Stepper and distr
 )
 from liebody._engine import PARAMS as ARG_PARAMS
 from liebody._engine import T0 as ARG_T0
-from liebody._ensemble import EnsembleRun, resolve_threads, sample_diagnostics
+from liebody._ensemble import _DRIVERS as _ONE_DRIVERS
+from liebody._ensemble import (
+    _EXACT,
+    CTL,
+    NO_DMAX,
+    NO_DREF,
+    Run,
+    exact_flow_times,
+    one_body_drivers,
+    resolve_threads,
+)
+from liebody._ensemble import drive as _drive
 from liebody._kernels import stages as S
 from liebody._methods import _REGISTRY
 from liebody._ordering import ROWS_AT_ONCE
@@ -75,7 +86,6 @@ from liebody._validate import (
 from liebody._validate import as_unit_quaternion as _as_unit_q
 from liebody.errors import (
     ConvergenceError,
-    IntegrationInterrupted,
     TorqueError,
 )
 from liebody.scenes import _MEMO, Scene, TorqueModel, _memo
@@ -108,7 +118,8 @@ _SHORT_CALLS = _MEMO + "short_calls"
 SHORT_CALLS_KEPT = 32
 #: sample times of short runs, kept read-only and shared: (n_steps, save_every, dt) -> t
 _SHORT_TIMES: dict = {}
-SHORT_TIMES_SAMPLES, SHORT_TIMES_KEPT = 64, 256
+SHORT_TIMES_KEPT = 256
+
 
 def _initial_momentum(scene, L0, omega0, names=("L0", "omega0")) -> np.ndarray:
     """Body angular momentum ``(3,)`` or ``(N, 3)`` from ``L0`` or ``omega0`` (``names``:
@@ -523,8 +534,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
                     calls.clear()
                 calls[key] = call
             return call.run(scene, t0, u, q_init.tolist(), m_init.tolist(), m_init, q_init)
-        run = _Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
-                   diagnostics, u, t0)
+        run = Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model, progress,
+                  1, diagnostics, u, t0)
     else:
         q_init = np.ascontiguousarray(np.broadcast_to(q_init, (n_bodies, 4)))
         m_init = np.ascontiguousarray(np.broadcast_to(m_init, (n_bodies, 3)))
@@ -533,8 +544,8 @@ def integrate(scene, *, q0=_DEFAULT_Q0, L0=None, omega0=None, dt, steps=None,
         t = _sample_times(n_steps, save_every, dt, n_bodies,
                           RUN_BYTES_PER_BODY + _stage_bytes_per_body(scene, method, m_init, dt,
                                                                      u))
-        run = EnsembleRun(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
-                          progress, threads, diagnostics, u, t0, simd)
+        run = Run(scene, method, q_init, m_init, dt, n_steps, save_every, t, model,
+                  progress, threads, diagnostics, u, t0, simd)
     return run.sampled() if method.sampled else run.stepped()
 
 
@@ -798,52 +809,9 @@ def _first_row(u):
     return None if u is None else u.reshape(-1, u.shape[-1])[0]
 
 
-_DRIVERS: tuple | None = None
-#: the diagnostics' arrays of a run without them (its driver never reads or writes them)
-_NO_DREF, _NO_DMAX = np.zeros(S.DREF_WIDTH), np.zeros(3)
-#: a one-body driver's control block before its first call (copied; ``[0]``: save_every)
-_CTL = np.zeros(2, dtype=np.int64)
-
-
-def _drivers() -> tuple:
-    """``(RUNNERS, DIAG_RUNNERS)`` of the one-body drivers, imported on first use (numba
-    loads with them) and then kept (an import statement per call costs a microsecond)."""
-    global _DRIVERS
-    if _DRIVERS is None:
-        from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
-
-        _DRIVERS = (RUNNERS, DIAG_RUNNERS)
-    return _DRIVERS
-
-
-def _outputs(q0: np.ndarray, m0: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """A one-body run's sample arrays ``(n, 4)``, ``(n, 3)``, the initial state first."""
-    q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
-    q_out[0] = q0
-    m_out[0] = m0
-    return q_out, m_out
-
-
-def _drive(runner, plan, args: tuple):
-    """Call a one-body driver (``runner``, of ``plan``'s family) on ``args``
-    (:func:`one_body_args`): through numba's dispatch on the plan's first call (which
-    compiles or loads the driver), through the compiled entry point from its second call
-    on (every argument then has the same type: about 0.4 us less a call; a plan made for
-    one run, such as a new orbit's, never resolves it)."""
-    fn = plan.entries.get(runner)
-    if fn is not None:
-        return fn(*args)
-    out = runner(*args)
-    if runner in plan.entries:
-        plan.entries[runner] = entry_point(runner, args)
-    else:
-        plan.entries[runner] = None
-    return out
-
-
 class _ShortCall:
     """A one-body run of one driver call, without progress bar or diagnostics (the fixed
-    cost of control loops and optimisers): :meth:`_Run.stepped` without a run object, for
+    cost of control loops and optimisers): :meth:`Run.stepped` without a run object, for
     one method, step, step count, save interval and model.
 
     Without a user torque whose potential is called, the call is
@@ -853,7 +821,7 @@ class _ShortCall:
     are kept, so a loop that advances the clock reuses the call too). The
     call holds no reference to its scene (:meth:`run` is given it): kept on the scene, it
     would make a cycle that frees the scene only when the cyclic garbage collector runs.
-    An interrupted, overflowing or failed run is handed to :class:`_Run`, which reports it
+    An interrupted, overflowing or failed run is handed to :class:`Run`, which reports it
     as a longer run would."""
 
     __slots__ = ("at", "casimir", "ctl", "dt", "energy", "fields", "inertia", "k", "keep",
@@ -872,7 +840,7 @@ class _ShortCall:
             if method.sampled else None
         self.fields = None  # the trajectories' other fields, from the first one
         self.last = None  # (L0's bytes, its plan): the plan of a repeated initial state
-        self.ctl = ctl = _CTL.copy()
+        self.ctl = ctl = CTL.copy()
         ctl[0] = save_every
         # the end-of-run check in scalar arithmetic (:func:`_one_body_problems`'s rules)
         # where it needs no potential; else that function
@@ -1032,7 +1000,7 @@ class _ShortCall:
                 write_controls(params, u)
             head, tail = one_body_arg_ends(plan, params, plan.merge_ends, dt, t0, 0.0,
                                            self.n_steps, self.save_every, True,
-                                           self.model.address, _NO_DREF, _NO_DMAX)
+                                           self.model.address, NO_DREF, NO_DMAX)
             fn = None
             self.last = (key, plan, head, tail, fn)
         state = np.array(ql + ml)
@@ -1046,7 +1014,8 @@ class _ShortCall:
             if fn is not None:
                 done, saved, status = fn(*args)
             else:  # numba's dispatch, then its entry point (:func:`_drive`)
-                runner = (_DRIVERS or _drivers())[False][plan.family]
+                runner = (_ONE_DRIVERS[0] if _ONE_DRIVERS else one_body_drivers())[False][
+                    plan.family]
                 done, saved, status = _drive(runner, plan, args)
                 fn = plan.entries.get(runner)
                 if fn is not None:
@@ -1063,18 +1032,18 @@ class _ShortCall:
         run.info = dict(plan.info)
         run.reach = plan.reach
         if status is None:
-            run._interrupted(1, 0)
+            run.interrupted_one(1, 0)
         if status == S.STATUS_OK:
-            return run._overflowed()
-        return run._failed(status, done, saved, state)
+            return run.overflowed()
+        return run.failed(status, done, saved, state)
 
-    def _run(self, scene, t0, u, ql, m0, q0, q_out, m_out) -> _Run:
+    def _run(self, scene, t0, u, ql, m0, q0, q_out, m_out) -> Run:
         """The run object that reports an outcome other than a complete run, as a longer
         run's (its warnings point at :func:`integrate`'s caller from a method of
         :class:`_ShortCall` called by :meth:`run`)."""
-        return _Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
-                    self.n_steps, self.save_every, self.t, self.model, False, False, u, t0,
-                    (q_out, m_out))
+        return Run(scene, self.method, np.array(ql) if q0 is None else q0, m0, self.dt,
+                   self.n_steps, self.save_every, self.t, self.model, False, 1, False, u, t0,
+                   outputs=(q_out, m_out))
 
 
     def _complete(self, scene, times, q_out, m_out, info: dict, end: list, ql: list,
@@ -1125,7 +1094,7 @@ class _ShortCall:
         return warn_invariants(traj, stacklevel, (ql, end[:4], ml, end[4:]))
 
     def _exact(self, scene, t0, times, ql, ml, m0, q0) -> Trajectory:
-        """The exact flow evaluated at the sample times (:meth:`_Run.sampled` for one call
+        """The exact flow evaluated at the sample times (:meth:`Run.sampled` for one call
         of its kernel); its warnings point at :func:`integrate`'s caller."""
         n = self.t.shape[0]
         q_out, m_out = np.empty((n, 4)), np.empty((n, 3))
@@ -1135,268 +1104,15 @@ class _ShortCall:
             # the initial state from the first samples: contiguous and writeable, as a
             # first call's copies (a repeated call's m0 is the caller's L0, which may be
             # read-only or strided: numba would compile the kernel again for it)
-            (_EXACT[0] if _EXACT else _exact_flow_times())(self.inertia, q_out[0], m_out[0],
+            (_EXACT[0] if _EXACT else exact_flow_times())(self.inertia, q_out[0], m_out[0],
                                                           self.t[1:], q_out[1:], m_out[1:])
         except KeyboardInterrupt:
-            self._run(scene, t0, None, ql, m0, q0, q_out, m_out)._interrupted(1, 0)
+            self._run(scene, t0, None, ql, m0, q0, q_out, m_out).interrupted_one(1, 0)
         if not math.isfinite(float(q_out.sum()) + float(m_out.sum())):
             bad = ~(np.isfinite(q_out).all(axis=1) & np.isfinite(m_out).all(axis=1))
             k = int(np.argmax(bad))
             run = self._run(scene, t0, None, ql, m0, q0, q_out, m_out)
-            return run._failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
-                                         t0 + self.t[k], stacklevel=5)
+            return run.failed_nonfinite(k, run._step_of_sample(k - 1), t0 + self.t[k - 1],
+                                        t0 + self.t[k], stacklevel=5)
         return self._complete(scene, times, q_out, m_out, _NO_INFO,
                               q_out[-1].tolist() + m_out[-1].tolist(), ql, ml, 6)
-
-
-def _start(plan, q0: np.ndarray, m0: np.ndarray, u, save_every: int) -> tuple:
-    """A one-body run's driver inputs: the first body's stage parameters (a copy with the
-    controls ``u`` written in, if any), ``q0`` and ``m0`` as lists, the state
-    ``(q, L)`` and the control block."""
-    params = plan.first[0]
-    if u is not None:
-        params = params.copy()
-        write_controls(params, u)
-    q0l, m0l = q0.tolist(), m0.tolist()
-    ctl = _CTL.copy()
-    ctl[0] = save_every
-    return params, q0l, m0l, np.array(q0l + m0l), ctl
-
-
-def _completed(scene, method, dt: float, info: dict, t: np.ndarray, t0: float,
-               q_out: np.ndarray, m_out: np.ndarray, diagnostics, q0l: list, m0l: list,
-               state: np.ndarray, stacklevel: int) -> Trajectory | None:
-    """The trajectory of a one-body run that finished (``state``: its final state, which is
-    its last sample: a saved step is never merged with the next), after the end-of-run
-    check; ``None`` when its final ``L`` overflows :data:`MAX_MOMENTUM`."""
-    end = state.tolist()
-    L1 = end[4:]
-    if not max(abs(L1[0]), abs(L1[1]), abs(L1[2])) <= MAX_MOMENTUM:
-        return None
-    q_out.setflags(write=False)  # ours: no view
-    m_out.setflags(write=False)
-    traj = Trajectory._complete(t if t0 == 0.0 else t0 + t, q_out, m_out, scene, method, dt,
-                                info.copy(), diagnostics)  # (the plan's info is cached)
-    return warn_invariants(traj, stacklevel, (q0l, end[:4], m0l, L1))
-
-
-_EXACT: list = []
-
-
-def _exact_flow_times():
-    """The exact flow's kernel at output times, imported on first use and then kept."""
-    if not _EXACT:
-        from liebody._kernels.exact import exact_flow_times
-
-        _EXACT.append(exact_flow_times)
-    return _EXACT[0]
-
-
-class _Run:
-    """One call of :func:`integrate` after validation: runs it and reports the outcome."""
-
-    def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model, progress,
-                 diagnostics=False, u=None, t0=0.0, outputs=None):
-        self.scene, self.method, self.dt = scene, method, dt
-        self.u = u
-        self.t0 = t0  # the start time; self.t holds the sample times relative to it
-        self.q0, self.m0 = q0, m0
-        self.n_steps, self.save_every, self.t = n_steps, save_every, t
-        self.model, self.progress = model, progress
-        self.diag = diagnostics
-        if diagnostics:
-            self.dref = diagnostic_reference(scene, model, q0, m0, t0)[0]
-            self.dmax = np.zeros(3)
-        else:  # (the drivers without diagnostics never touch them: shared)
-            self.dref, self.dmax = _NO_DREF, _NO_DMAX
-        if outputs is None:
-            outputs = _outputs(q0, m0, t.shape[0])
-        self.q_out, self.m_out = outputs
-        self.info: dict = {}
-        self.reach = (0.0, 1.0)  # the times the plan's stages read, in steps (Plan.reach)
-
-    def _slices(self, total: int, unit: str, first: int = FIRST_SLICE):
-        return time_slices(total, self.progress, unit, first)
-
-    # -------------------------------------------------------------- the exact flow
-    def sampled(self) -> Trajectory:
-        """The exact flow evaluated at the output times, in slices of samples."""
-        exact_flow_times = _exact_flow_times()
-        moments = np.ascontiguousarray(self.scene.moments, dtype=np.float64)
-        t, q, m = self.t, self.q_out, self.m_out
-        done = 1  # sample 0 is the initial state
-        total = len(t) - 1
-        try:
-            slices = (total,) if total <= FIRST_SLICE and not self.progress else \
-                self._slices(total, "sample")
-            for n in slices:
-                sl = slice(done, done + n)
-                exact_flow_times(moments, self.q0, self.m0, t[sl], q[sl], m[sl])
-                if n <= SHORT_TIMES_SAMPLES and all(map(
-                        math.isfinite, q[sl].ravel().tolist() + m[sl].ravel().tolist())):
-                    done += n  # (a few samples: checked as numbers, at once)
-                    continue
-                bad = ~(np.isfinite(q[sl]).all(axis=1) & np.isfinite(m[sl]).all(axis=1))
-                if bad.any():
-                    k = done + int(np.argmax(bad))
-                    return self._failed_nonfinite(k, self._step_of_sample(k - 1),
-                                                  self.t0 + t[k - 1], self.t0 + t[k])
-                done += n
-        except KeyboardInterrupt:
-            self._interrupted(done, self._step_of_sample(done - 1))
-        diag = None
-        if self.diag:  # the exact flow keeps its invariants: measured on the samples
-            diag = diagnostics_dict(sample_diagnostics(self.dref[None], q[None], m[None]), True,
-                                    self.dref)
-        q.setflags(write=False)  # ours: no view
-        m.setflags(write=False)
-        return self._finish(Trajectory._complete(self._times(), q, m, self.scene, self.method,
-                                                 self.dt, self.info, diag))
-
-    def _times(self) -> np.ndarray:
-        """The sample times ``t0 + t``."""
-        return self.t if self.t0 == 0.0 else self.t0 + self.t
-
-    def _step_of_sample(self, k: int) -> int:
-        return min(k * self.save_every, self.n_steps)
-
-    # -------------------------------------------------------------- stepping
-    def stepped(self) -> Trajectory:
-        """Run the method's stage table through the driver of its family, in slices."""
-        plan = self.method.plan(self.scene, self.m0, self.dt)
-        self.info = dict(plan.info)  # the trajectory's own (the plan's is cached and shared)
-        self.reach = plan.reach
-        runner = (_DRIVERS or _drivers())[self.diag][plan.family]
-        params, q0, m0, state, ctl = _start(plan, self.q0, self.m0, self.u, self.save_every)
-        merge = plan.merge_ends and not self.diag
-        addr = self.model.address
-        done = saved = 0
-        status = S.STATUS_OK
-        try:
-            first = USER_FIRST_SLICE if self.model.function is not None else FIRST_SLICE
-            if self.n_steps <= first and not self.progress:  # a short run: one call
-                done, saved, status = self._call(runner, plan, params, merge, state, ctl, addr,
-                                                 0, 0, self.n_steps)
-            else:
-                for n in self._slices(self.n_steps, "step", first):
-                    with interrupt_after_call():  # (a finished slice is kept on Ctrl-C)
-                        d, s, status = self._call(runner, plan, params, merge, state, ctl,
-                                                  addr, done, saved, n)
-                        done += d
-                        saved += s
-                    if status != S.STATUS_OK:
-                        break
-        except KeyboardInterrupt:
-            self._interrupted(1 + saved, done)
-        if status == S.STATUS_OK:
-            traj = _completed(self.scene, self.method, self.dt, self.info, self.t, self.t0,
-                              self.q_out, self.m_out, self._diagnostics(), q0, m0, state,
-                              stacklevel=5)
-            return self._overflowed() if traj is None else traj
-        return self._failed(status, done, saved, state)
-
-    def _call(self, runner, plan, params, merge, state, ctl, addr, done: int, saved: int,
-              n: int):
-        """One driver call: ``n`` steps after ``done`` (``saved`` samples written), the
-        last slice when it reaches ``n_steps``; returns ``(steps, samples, status)``."""
-        args = one_body_args(plan, params, merge, self.dt, self.t0, float(done), n,
-                             self.save_every, done + n == self.n_steps, state, ctl,
-                             self.q_out[1 + saved:], self.m_out[1 + saved:], addr, self.dref,
-                             self.dmax)
-        return _drive(runner, plan, args)
-
-    def _diagnostics(self) -> dict | None:
-        if not self.diag:
-            return None
-        return diagnostics_dict(self.dmax[None, :], True, self.dref)
-
-    # -------------------------------------------------------------- outcomes
-    def _partial(self, n_keep: int, status: str, failed_at: float | None = None) -> Trajectory:
-        return Trajectory(self._times()[:n_keep].copy(), self.q_out[:n_keep].copy(),
-                          self.m_out[:n_keep].copy(), self.scene, self.method, self.dt,
-                          failed_at=failed_at, info=self.info, status=status)
-
-    def _interrupted(self, n_keep: int, step: int):
-        traj = self._partial(n_keep, "interrupted")
-        raise IntegrationInterrupted(
-            f"{self.method.name}: interrupted after {step:,} of {self.n_steps:,} steps "
-            f"(t = {self.t0 + step * self.dt:.6g}); the {n_keep:,} samples computed so far are "
-            f"on this exception's .trajectory", traj, step, self.t0 + step * self.dt) from None
-
-    def _failed_nonfinite(self, n_keep: int, step: int, t_start: float, t_fail: float,
-                          stacklevel: int = 4) -> Trajectory:
-        """The samples before a non-finite state and the warning (at :func:`integrate`'s
-        caller: ``stacklevel`` counts this method's frame and those up to it)."""
-        traj = self._partial(n_keep, "failed", failed_at=t_fail)
-        warnings.warn(
-            f"{self.method.name}: the state became non-finite "
-            f"{failed_step_words(step, t_start, t_fail)}; returning the {n_keep:,} samples "
-            f"before it (Trajectory.failed_at is set)", RuntimeWarning, stacklevel=stacklevel)
-        return traj
-
-    def _overflowed(self) -> Trajectory:
-        """The run ended with ``|L|`` beyond :data:`MAX_MOMENTUM` (a torque that drives it
-        out of float64's range): the samples before the first such sample are returned,
-        with ``failed_at`` set and a warning, as for a non-finite state."""
-        size = np.max(np.abs(self.m_out), axis=1)
-        k = int(np.argmax(~(size <= MAX_MOMENTUM)))
-        step = self._step_of_sample(k)
-        t_fail = self.t0 + float(self.t[k])
-        traj = self._partial(k, "failed", failed_at=t_fail)
-        warnings.warn(
-            f"{self.method.name}: |L| reached {size[k]:.3g} by step {step:,} (t = "
-            f"{t_fail:.6g}), beyond {MAX_MOMENTUM:.0e}: the torque drove L out of float64's "
-            f"range (the kinetic energy |L|^2/(2 I) overflows, and the rotation per step "
-            f"is beyond resolution); returning the {k:,} samples before it "
-            f"(Trajectory.failed_at is set). Check the torque's size, or rescale the units",
-            RuntimeWarning, stacklevel=4)
-        return traj
-
-    def _failed(self, status: int, done: int, saved: int, state: np.ndarray) -> Trajectory:
-        name, dt = self.method.name, self.dt
-        n_keep = 1 + saved
-        t0, t_fail = failed_step_times(self.t0, done, dt)  # the failing step's start, end
-        where = (f"{failed_step_words(done, t0, t_fail)}; the {n_keep:,} samples before it "
-                 f"are on this exception's .trajectory")
-        if status == S.STATUS_NONFINITE:
-            # a user torque that fails inside a baseline's step at a state other than its
-            # start (the driver asks it there) shows as a non-finite state: ask the torque
-            # at the step's clock values before blaming the dynamics
-            if self.model.function is not None and not _torque_is_finite(
-                    self.model, state, (t0, t0 + 0.5 * dt, t0 + dt), self.u):
-                raise_torque_error(self.model, name, where, state, t0, dt,
-                                   self._partial(n_keep, "failed", failed_at=t_fail), done,
-                                   self.u, reach=self.reach)
-            return self._failed_nonfinite(n_keep, done, t0, t_fail, stacklevel=5)
-        # failed_at is the time the failing step was to reach, as for a blow-up and for
-        # the bodies of an ensemble; the exception's .t is where that step starts
-        traj = self._partial(n_keep, "failed", failed_at=t_fail)
-        if status == S.STATUS_TORQUE:
-            raise_torque_error(self.model, name, where, state, t0, dt, traj, done, self.u,
-                               reach=self.reach)
-        if status == S.STATUS_NO_CONVERGENCE:
-            w = float(np.max(np.abs(state[4:] / self.scene.moments)))
-            raise ConvergenceError(
-                f"{name}: the implicit DMV (RATTLE) equation has no solution {where}. "
-                f"h |omega| = {dt * w:.3g} there; the physical root exists up to about 1: "
-                f"reduce dt below about {0.7 / w:.3g}", traj, done, t0)
-        if status == S.STATUS_KICK_NO_CONVERGENCE:
-            stiff = torque_stiffness(self.model, state, t0, self.u)
-            raise ConvergenceError(
-                f"{name}: the implicit kick of the momentum-dependent torque did not "
-                f"converge {where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; "
-                f"reduce dt, or check that the torque is smooth in L", traj, done, t0)
-        from liebody._kernels._jit import cache_advice
-
-        raise RuntimeError(
-            f"{name}: the driver returned status {status}, which no driver returns for a "
-            f"plan it can run. Either numba's disk cache gave this process another "
-            f"kernel's compiled code (a damaged or mixed-up cache: {cache_advice()}), or "
-            f"the method's recipe holds a stage its driver does not run (a bug: please "
-            f"report it if a fresh cache does not help)")
-
-    def _finish(self, traj: Trajectory) -> Trajectory:
-        """``traj``, after the end-of-run check."""
-        return warn_invariants(traj, stacklevel=5)
-
-

@@ -19,7 +19,6 @@ call exactly as ``step(m)`` would have left it.
 
 from __future__ import annotations
 
-import itertools
 import math
 import threading
 import time
@@ -33,9 +32,13 @@ from liebody._engine import (
     N_STEPS,
     STEP0,
     T0,
+    Failure,
     batch_args,
+    batch_runner,
+    body_chunks,
     failed_step_times,
     failed_step_words,
+    failure_error,
     groups_info,
     next_slice,
     one_body_args,
@@ -44,7 +47,7 @@ from liebody._engine import entry_point as _entry_point
 from liebody._kernels import stages as S
 from liebody._validate import as_positive_float, as_positive_int, clock_origin
 from liebody._validate import as_unit_quaternion as _as_unit_q
-from liebody.errors import ConvergenceError, IntegrationError, IntegrationInterrupted
+from liebody.errors import IntegrationError, IntegrationInterrupted
 from liebody.scenes import Scene
 
 __all__ = ["Stepper"]
@@ -335,15 +338,9 @@ class Stepper:
 
     def _runner(self, plan):
         """The batch driver of a group's plan and whether it is the SIMD one: the rule
-        of :func:`liebody.integrate` (``simd``, ``SIMD_MIN_BODIES``, ``simd_supports``),
-        so that a stepper runs the kernel ``integrate()`` runs."""
-        from liebody._kernels import batch
-        from liebody._kernels.batch_drivers import BATCH_RUNNERS
-
-        wanted = self._simd is not False and (self._simd or self._n >= batch.SIMD_MIN_BODIES)
-        if wanted and batch.simd_supports(plan, self._model.code):
-            return batch.SIMD_RUNNERS[(plan.family, False)], True
-        return BATCH_RUNNERS[plan.family], False
+        of :func:`liebody.integrate` (:func:`~liebody._engine.batch_runner`), so that a
+        stepper runs the kernel ``integrate()`` runs."""
+        return batch_runner(plan, self._model.code, self._n, self._simd)
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -501,37 +498,19 @@ class Stepper:
 
     def _raise(self, status: int, done: int, state: np.ndarray):
         """The error of a failed step, after ``done`` good steps of this call from the
-        stepper's state (``state``: the last good state)."""
-        from liebody._integrate import raise_torque_error, torque_stiffness
-
+        stepper's state (``state``: the last good state): :func:`failure_error`'s, or
+        for a blow-up an :class:`IntegrationError`."""
         name, dt = self._method.name, self._dt
-        t0, t1 = failed_step_times(self._t0, self._k + done, dt)
-        where = (failed_step_words(done, t0, t1, " of this call")
+        failure = Failure(None, status, done, *failed_step_times(self._t0, self._k + done, dt),
+                          state)
+        where = (failed_step_words(done, failure.t, failure.failed_at, " of this call")
                  + "; the stepper is left as it was before the call")
-        if status == S.STATUS_TORQUE or (status == S.STATUS_NONFINITE
-                                         and self._model.function is not None):
-            from liebody._integrate import _torque_is_finite
-
-            if status == S.STATUS_TORQUE or not _torque_is_finite(
-                    self._model, state, (t0, t0 + 0.5 * dt, t0 + dt), self._u):
-                raise_torque_error(self._model, name, where, state, t0, dt, None, done,
-                                   self._u, reach=self._reach)
-        if status == S.STATUS_NONFINITE:
-            raise IntegrationError(f"{name}: the state became non-finite {where}", None, done,
-                                   t0)
-        if status == S.STATUS_NO_CONVERGENCE:
-            w = float(np.max(np.abs(state[4:] / self._scene.moments)))
-            raise ConvergenceError(
-                f"{name}: the implicit DMV (RATTLE) equation has no solution {where}. "
-                f"h |omega| = {dt * w:.3g} there; reduce dt below about {0.7 / w:.3g}",
-                None, done, t0)
-        if status == S.STATUS_KICK_NO_CONVERGENCE:
-            stiff = torque_stiffness(self._model, state, t0, self._u)
-            raise ConvergenceError(
-                f"{name}: the implicit kick of the momentum-dependent torque did not converge "
-                f"{where}. (dt/2) |dN/dL| = {0.5 * dt * stiff:.3g} there; reduce dt",
-                None, done, t0)
-        raise RuntimeError(f"{name}: status {status} from the driver")  # pragma: no cover
+        error = failure_error(name, self._scene, self._model, failure, dt, where, None,
+                              self._u, self._reach)
+        if error is None:
+            error = IntegrationError(f"{name}: the state became non-finite {where}", None,
+                                     done, failure.t)
+        raise error
 
     def _advance(self, n: int, keep: np.ndarray | None = None, carry: bool = False) -> None:
         """``n`` steps of the batch driver of each group (for one body, the one body),
@@ -707,9 +686,7 @@ class Stepper:
             self._model, g["state"][row].copy(), t_start, self._dt, u, i, g["plan"].reach)
 
     def _chunks(self, n: int) -> list[slice]:
-        parts = max(1, min(self._threads, n // 64))
-        edges = np.linspace(0, n, parts + 1).round().astype(int)
-        return [slice(int(a), int(b)) for a, b in itertools.pairwise(edges) if b > a]
+        return body_chunks(n, self._threads)
 
     def _thread_pool(self):
         if self._pool is None:

@@ -285,15 +285,15 @@ def _sample_steps(n_steps: int, save_every: int, n_samples: int) -> np.ndarray:
 
 
 def _run_class():
-    from liebody._integrate import _Run
+    from liebody._ensemble import _ONE, Run
 
-    class WheelRun(_Run):
+    class WheelRun(Run):
         """``integrate()``'s one-body run, cut where the wheels' rates change."""
 
         def __init__(self, scene, method, q0, m0, dt, n_steps, save_every, t, model,
                      progress, diagnostics, u, t0):
             super().__init__(scene, method, q0, m0, dt, n_steps, save_every, t, model,
-                             progress, diagnostics, None, t0)
+                             progress, 1, diagnostics, None, t0)
             self.wu = u
             self.wheels = WheelState(scene, 1, dt, t0)
             # the pieces of the whole run, planned at once (a few: where rates change)
@@ -311,30 +311,27 @@ def _run_class():
                 rot = rotor(scene.axes, h0)[0]
                 inv = 1.0 / np.asarray(scene.moments, dtype=float)
                 T0 = 0.5 * float(np.sum((m0 - rot) ** 2 * inv))
-                self.dref[10:13] = rot
-                self.dref[6] = math.nan if (plan_state.moved or scene.sources) else T0
-                self.dref[7] = 1.0 / T0 if T0 > 0 else 0.0
+                dref = self.dref[0]
+                dref[10:13] = rot
+                dref[6] = math.nan if (plan_state.moved or scene.sources) else T0
+                dref[7] = 1.0 / T0 if T0 > 0 else 0.0
 
         def stepped(self):
             from liebody._engine import first_slice, interrupt_after_call
-            from liebody._kernels.driver import DIAG_RUNNERS, RUNNERS
 
-            plan = self.method.plan(self.scene, self.m0, self.dt)
+            plan = self.method.plan(self.scene, self.m0[0], self.dt)
             self.info = dict(plan.info)
-            runner = (DIAG_RUNNERS if self.diag else RUNNERS)[plan.family]
-            params = plan.params[0].copy()
+            g = self._group(_ONE, plan, self._runner(plan)[0])
+            g["params"] = params = g["params"].copy()  # (its rotor slots change per piece)
             merge = plan.merge_ends and not self.diag
-            state = np.concatenate([self.q0, self.m0])
-            ctl = np.array([self.save_every, 0], dtype=np.int64)
-            addr = self.model.address
-            done = saved = 0
-            status = S.STATUS_OK
             pieces = iter(self.pieces)
             end = 0  # the end of the current piece
+            done = 0
             try:
-                for n in self._slices(self.n_steps, "step", first_slice(self.model)):
+                for n in self.slices(self.n_steps, self.progress, "step",
+                                     first_slice(self.model)):
                     stop = done + n
-                    while done < stop and status == S.STATUS_OK:
+                    while done < stop and not g["status"][0]:
                         if done == end:
                             start, length, _, _, after = next(pieces)
                             write_slots(params, after)
@@ -342,37 +339,35 @@ def _run_class():
                         k = min(stop, end) - done
                         # a piece's last step ends on its full state (unmerged), as the
                         # Stepper's call that the cut ends does: the same numbers
-                        cut = merge and done + k == end
-                        if k > cut:
-                            with interrupt_after_call():
-                                d, s, status = self._call(runner, plan, params, merge, state,
-                                                          ctl, addr, done, saved, k - cut)
-                                done += d
-                                saved += s
-                        if cut and status == S.STATUS_OK:
-                            with interrupt_after_call():
-                                d, s, status = self._call(runner, plan, params, False, state,
-                                                          ctl, addr, done, saved, 1)
-                                done += d
-                                saved += s
-                    if status != S.STATUS_OK:
+                        cut = int(bool(merge) and done + k == end)
+                        for steps, merged in ((k - cut, merge), (cut, False)):
+                            if steps and not g["status"][0]:
+                                with interrupt_after_call():
+                                    self._run_one(g, None, done, steps,
+                                                  done + steps == self.n_steps, merged)
+                                    done = int(g["done"][0])
+                    if g["status"][0]:
                         break
             except KeyboardInterrupt:
-                self._interrupted(1 + saved, done)
+                self._collect([g])
+                self.interrupted_one(1 + int(self.saved[0]), int(self.done[0]))
+            self._collect([g])
+            status = int(self.status[0])
             if status == S.STATUS_OK:
-                from liebody._integrate import MAX_MOMENTUM
+                from liebody._engine import MAX_MOMENTUM
                 from liebody.trajectory import Trajectory
 
-                if not np.max(np.abs(self.m_out[-1])) <= MAX_MOMENTUM:
-                    return self._overflowed()
-                self.q_out.flags.writeable = self.m_out.flags.writeable = False
-                traj = Trajectory(self._times(), self.q_out, self.m_out, self.scene,
+                if not np.max(np.abs(self.m_one[-1])) <= MAX_MOMENTUM:
+                    return self.overflowed()
+                self.q_one.flags.writeable = self.m_one.flags.writeable = False
+                traj = Trajectory(self._times(), self.q_one, self.m_one, self.scene,
                                   self.method, self.dt, info=self.info,
                                   diagnostics=self._diagnostics(),
                                   wheels=self._wheel_samples(len(self.t)),
                                   saturations=self.final_state.records(None, index=0))
                 return _check(traj)
-            return self._failed(status, done, saved, state)
+            return self.failed(status, int(self.done[0]), int(self.saved[0]),
+                               self.state[0].copy())
 
         def _wheel_samples(self, n_keep: int) -> np.ndarray:
             steps = _sample_steps(self.n_steps, self.save_every, len(self.t))[:n_keep]
@@ -380,12 +375,12 @@ def _run_class():
             out.flags.writeable = False
             return out
 
-        def _partial(self, n_keep, status, failed_at=None):
+        def partial(self, n_keep, status, failed_at=None):
             from liebody.trajectory import Trajectory
 
             until = self.t0 + float(self.t[n_keep - 1]) if failed_at is None else failed_at
-            return Trajectory(self._times()[:n_keep].copy(), self.q_out[:n_keep].copy(),
-                              self.m_out[:n_keep].copy(), self.scene, self.method, self.dt,
+            return Trajectory(self._times()[:n_keep].copy(), self.q_one[:n_keep].copy(),
+                              self.m_one[:n_keep].copy(), self.scene, self.method, self.dt,
                               failed_at=failed_at, info=self.info, status=status,
                               wheels=self._wheel_samples(n_keep),
                               saturations=self.final_state.records(None, until, index=0))

@@ -277,21 +277,21 @@ def _run_task(scene, method, q0, m0, u, spec):
     """One task: the local ensemble run of a chunk of bodies, on a worker.
 
     The inputs were validated and planned on the client, so the task only runs:
-    :class:`liebody._ensemble.EnsembleRun`, the runner behind the local call, with no
+    :class:`liebody._ensemble.Run`, the run engine behind the local call, with no
     check of its own (a body whose torque fails at the initial state fails alone, as
     any other failing body does). Returns the samples and the run's records: status,
     failed_at, diagnostics, which bodies ran the SIMD kernels, and the warnings the run
     emitted.
     """
     from liebody._engine import failure_summary
-    from liebody._ensemble import EnsembleRun
+    from liebody._ensemble import Run
     from liebody._integrate import _sample_times
 
     rows = q0.shape[0]
     t = _sample_times(spec["n_steps"], spec["save_every"], spec["dt"], rows)
-    run = EnsembleRun(scene, method, q0, m0, spec["dt"], spec["n_steps"], spec["save_every"],
-                      t, scene.torque_model(), False, spec["threads"], spec["diagnostics"],
-                      u, spec["t0"], spec["simd"])
+    run = Run(scene, method, q0, m0, spec["dt"], spec["n_steps"], spec["save_every"], t,
+              scene.torque_model(), False, spec["threads"], spec["diagnostics"], u,
+              spec["t0"], spec["simd"])
     with _task_warnings() as caught:
         traj = run.sampled() if method.sampled else run.stepped()
     return {"q": traj.q, "L": traj.L, "status": np.asarray(traj.status),

@@ -65,3 +65,38 @@ def test_one_body_still_refuses_a_torque_that_fails_at_its_start():
                                params=[-1.0])
     with pytest.raises(liebody.TorqueError, match="non-finite values"):
         liebody.integrate(scene, L0=[1.0, -0.5, 2.0], dt=0.05, steps=5)
+
+
+@njit
+def _fails_after_half_a_second(t, q, L, p):
+    if t > 0.5:
+        return np.array([np.nan, 0.0, 0.0])
+    return -p[0] * q[1:]
+
+
+@pytest.mark.parametrize("n", [None, 3])
+def test_a_run_whose_bodies_all_failed_stops(monkeypatch, n):
+    """Once every body has failed, no further slice of the run is started (before, an
+    ensemble stepped through the rest of its steps, every body skipped); one body and
+    an ensemble take the same engine and the same rule."""
+    from liebody import _engine, _ensemble
+
+    monkeypatch.setattr(_engine, "USER_FIRST_SLICE", 4)
+    issued = []
+    slices = _ensemble.time_slices
+    monkeypatch.setattr(_ensemble, "time_slices",
+                        lambda *a: (issued.append(k) or k for k in slices(*a)))
+    rates = [0.1] if n is None else np.array([[0.1], [0.2], [0.3]])
+    scene = liebody.TorqueBody(liebody.RigidBody([1.0, 2.0, 3.0]), _fails_after_half_a_second,
+                               params=rates, orientation_only=True)
+    steps = 200_000
+    if n is None:
+        with pytest.raises(liebody.TorqueError, match="non-finite values") as info:
+            liebody.integrate(scene, L0=[1.0, -0.5, 2.0], dt=0.05, steps=steps)
+        assert info.value.step == 10
+    else:
+        with pytest.warns(RuntimeWarning, match="3 of 3 bodies failed"):
+            tr = liebody.integrate(scene, L0=[1.0, -0.5, 2.0], dt=0.05, steps=steps,
+                                   simd=False)
+        assert [r.reason for r in tr.failures] == ["torque failed"] * 3
+    assert issued and sum(issued) < 1000 < steps  # stopped after the failures

@@ -20,7 +20,7 @@ from numba import njit
 from scipy.integrate import solve_ivp
 
 import liebody
-from liebody import _integrate
+from liebody import _engine, _ensemble, _integrate
 from liebody import quaternion as Q
 from support import interrupt_child
 
@@ -78,10 +78,15 @@ def test_slicing_does_not_change_a_bit(hlw, monkeypatch):
     scene, L0 = hlw
     whole = liebody.integrate(scene, L0=L0, dt=0.01, steps=20_000, method="splitting4",
                               save_every=7)
-    monkeypatch.setattr(_integrate, "FIRST_SLICE", 3)
-    monkeypatch.setattr(_integrate, "SLICE_SECONDS", 1e-5)
+    monkeypatch.setattr(_engine, "FIRST_SLICE", 3)
+    monkeypatch.setattr(_engine, "SLICE_SECONDS", 1e-5)
+    sizes = []
+    slices = _engine.time_slices
+    monkeypatch.setattr(_ensemble, "time_slices", lambda *a: (sizes.append(k) or k
+                                                             for k in slices(*a)))
     cut = liebody.integrate(scene, L0=L0, dt=0.01, steps=20_000, method="splitting4",
                             save_every=7)
+    assert len(sizes) > 10 and sizes[0] == 3  # (cut it was)
     np.testing.assert_array_equal(whole.q, cut.q)
     np.testing.assert_array_equal(whole.L, cut.L)
     np.testing.assert_array_equal(whole.t, cut.t)
