@@ -8,9 +8,10 @@ Contract (a template method, after scipy's ``OdeSolver``):
    scene (by its capabilities);
 3. plan it: a stage table made concrete for this body, initial state and step
    (set-up choices such as the axis ordering are recorded in ``Trajectory.info``);
-4. run the driver of the plan's family in slices of bounded time (a fraction of a
-   second each), so that Ctrl-C stops the run within about a second whatever the run's
-   length; slicing does not change a bit of the result;
+4. run the driver of the plan's family through the run engine (``_ensemble.Run``: one
+   body is an ensemble of one) in slices of bounded time (a fraction of a second each),
+   so that Ctrl-C stops the run within about a second whatever the run's length;
+   slicing does not change a bit of the result;
 5. wrap the samples in a :class:`~liebody.trajectory.Trajectory`. Nothing fails
    silently: a non-finite state stops the run, keeps the samples before it, sets
    ``failed_at`` and warns; a failed implicit solve or a failing user torque raises
