@@ -252,7 +252,7 @@ class Run:
         m.setflags(write=False)
         traj = Trajectory._complete(self._times(), q, m, self.scene, self.method, self.dt,
                                     self.info, diag)
-        return warn_invariants(traj, stacklevel=6)
+        return warn_invariants(traj, stacklevel=5)  # (sampled, integrate: the caller)
 
     # -------------------------------------------------------------- stepping
     def _runner(self, plan):
