@@ -737,8 +737,8 @@ def torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int =
         exc, words = torque_failure(model, state, t, u, i)
         if words is not None:
             error = TorqueError(f"{name}: {words} {where}", traj, step, t0)
-            if exc is not None:
-                error.__cause__ = exc
+            error.__cause__ = exc  # as ``raise ... from exc``: the context suppressed,
+            error.__suppress_context__ = True  # also where the torque raised nothing
             return error
     return TorqueError(f"{name}: the torque {model.signature} raised or returned non-finite "
                        f"values inside the step {where} (it is well behaved at the step's "

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
+import traceback
 import warnings
 
 import numpy as np
@@ -185,6 +186,36 @@ def test_a_torque_that_raises_is_the_errors_cause(steps):
     assert type(exc.__cause__) is ValueError and exc.__suppress_context__
     assert exc.t <= 0.31 < exc.t + dt + 1e-12
     assert len(exc.trajectory) == exc.step + 1
+
+
+def _raise_while_handling(fn):
+    try:
+        raise LookupError("the user's own, handled")
+    except LookupError:
+        fn()
+
+
+@pytest.mark.parametrize("where", ["long", "short", "stepper"])
+def test_a_torque_error_hides_the_callers_handled_exception(where):
+    """A TorqueError raised from the torque's words (here: it returned NaN, no exception
+    of its own) is raised as ``raise ... from`` raised it: a caller's exception being
+    handled is not shown as its context. Before the fix it was ("During handling of the
+    above exception, another exception occurred")."""
+    scene = liebody.TorqueBody(BODY, _nan_after_half, orientation_only=True)
+    L0 = [1.0, -0.5, 2.0]
+    if where == "stepper":
+        def fn():
+            liebody.Stepper(scene, L0=L0, dt=0.01).step(100)
+    else:
+        def fn():
+            liebody.integrate(scene, L0=L0, dt=0.01 if where == "long" else 0.1,
+                              steps=5000 if where == "long" else 15)
+    with pytest.raises(liebody.TorqueError) as info:
+        _raise_while_handling(fn)
+    exc = info.value
+    assert exc.__suppress_context__ and exc.__cause__ is None
+    text = "".join(traceback.format_exception(exc))
+    assert "LookupError" not in text, text
 
 
 # ----------------------------------------------------------------------- convergence
