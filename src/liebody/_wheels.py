@@ -358,7 +358,7 @@ def _run_class():
                 from liebody.trajectory import Trajectory
 
                 if not np.max(np.abs(self.m_one[-1])) <= MAX_MOMENTUM:
-                    return self.overflowed()
+                    return self.overflowed(stacklevel=6)  # (at integrate()'s caller)
                 self.q_one.flags.writeable = self.m_one.flags.writeable = False
                 traj = Trajectory(self._times(), self.q_one, self.m_one, self.scene,
                                   self.method, self.dt, info=self.info,
@@ -367,7 +367,7 @@ def _run_class():
                                   saturations=self.final_state.records(None, index=0))
                 return _check(traj)
             return self.failed(status, int(self.done[0]), int(self.saved[0]),
-                               self.state[0].copy())
+                               self.state[0].copy(), stacklevel=7)
 
         def _wheel_samples(self, n_keep: int) -> np.ndarray:
             steps = _sample_steps(self.n_steps, self.save_every, len(self.t))[:n_keep]
@@ -422,7 +422,7 @@ def _check(traj):
                             f"{_ENERGY_TOL:.0%}")
     if problems:
         warnings.warn(f"{traj.method.name}: " + "; ".join(problems) + " (the step may be too "
-                      "large for this scene)", InvariantWarning, stacklevel=4)
+                      "large for this scene)", InvariantWarning, stacklevel=6)
     return traj
 
 
@@ -461,7 +461,7 @@ def _ensemble(scene, method, q0, m0, dt, n_steps, save_every, progress, n, diagn
                 tr = exc.trajectory
         for w in caught:
             if not issubclass(w.category, RuntimeWarning) or tr.failed_at is None:
-                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+                warnings.warn(w.message, stacklevel=5)  # (at integrate()'s caller)
         info = tr.info
         j = len(tr.t)
         q[i, :j], L[i, :j], W[i, :j] = tr.q, tr.L, tr.wheels
@@ -474,7 +474,7 @@ def _ensemble(scene, method, q0, m0, dt, n_steps, save_every, progress, n, diagn
                 diag.setdefault(key, np.full(n, np.nan))[i] = v
     message = failure_message(method.name, status, failed_at)
     if message:
-        warnings.warn(message, RuntimeWarning, stacklevel=4)
+        warnings.warn(message, RuntimeWarning, stacklevel=5)
     for a in (q, L, W):
         a.flags.writeable = False
     sat.sort(key=lambda s: (s.t, s.body, s.wheel))

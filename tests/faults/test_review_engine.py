@@ -36,7 +36,7 @@ def _recorded():
 
 def _at_caller(caught, category=RuntimeWarning, n: int = 1):
     """Exactly ``n`` warnings of ``category``, each pointing at this file (the caller)."""
-    mine = [w for w in caught if issubclass(w.category, category)]
+    mine = [w for w in caught if w.category is category]
     assert len(mine) == n, [(w.category.__name__, str(w.message)) for w in caught]
     for w in mine:
         assert w.filename == __file__, (w.filename, w.lineno, str(w.message))
@@ -320,6 +320,73 @@ def test_an_ensemble_whose_bodies_fail_at_different_times_stops_after_the_last(
         assert t_fail <= tr.failed_at[i] <= t_fail + 0.02
         kept = round(tr.failed_at[i] / 0.01)  # the samples before the failing step
         assert np.isfinite(tr.q[i, :kept]).all() and np.isnan(tr.q[i, kept:]).all()
+
+
+# ----------------------------------------------------------------------- reaction wheels
+
+
+def _wheel_scene(n: int = 1):
+    body = BODY if n == 1 else liebody.RigidBody.batch([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    return liebody.ReactionWheels(body, np.eye(3), np.array([0.05, 0.04, 0.06]),
+                                  momentum=[0.1, 0.2, -0.1], max_speed=12.0, max_torque=0.05)
+
+
+@pytest.mark.parametrize(("method", "steps"), [("rk4", 9000), ("euler", 200)])
+def test_a_wheel_runs_blow_up_warns_at_the_callers_line(method, steps):
+    """One body with reaction wheels (a run of its own, cut where the rates change): the
+    samples before the failing step and one warning, at the caller's line. Before the
+    fix it was at liebody/wheels.py (two frames short)."""
+    with _recorded() as caught:
+        tr = liebody.integrate(_wheel_scene(), omega0=[40.0, -30.0, 20.0], dt=0.5, steps=steps,
+                               controls=[0.01, -0.02, 0.03], method=method)
+    (w,) = _at_caller(caught)
+    assert "became non-finite" in str(w.message)
+    assert tr.status == "failed" and tr.failed_at > tr.t[-1]
+    assert np.isfinite(tr.q).all() and len(tr.wheels) == len(tr)
+
+
+def test_a_wheel_runs_end_check_warns_at_the_callers_line(monkeypatch):
+    """The wheels' end-of-run check (|q| off 1: made up here) warns at the caller's line,
+    for one body and for an ensemble (whose bodies run one at a time; before the fix
+    the warnings pointed into liebody: _wheels.py and _integrate.py)."""
+    from liebody import _wheels
+
+    monkeypatch.setattr(_wheels, "_QNORM_TOL", -1.0)
+    kw = {"omega0": [0.04, -0.03, 0.02], "dt": 0.1, "steps": 300,
+          "controls": [0.01, -0.02, 0.03], "save_every": 3}
+    with _recorded() as caught:
+        liebody.integrate(_wheel_scene(), **kw)
+    (w,) = _at_caller(caught, liebody.InvariantWarning)
+    assert "|q| =" in str(w.message)
+    with _recorded() as caught:
+        liebody.integrate(_wheel_scene(2), **kw)
+    assert all("|q| =" in str(w.message)
+               for w in _at_caller(caught, liebody.InvariantWarning, n=2))
+
+
+def test_a_wheel_ensembles_failure_summary_warns_at_the_callers_line():
+    """One body of two blows up: one summary warning, at the caller's line (before the
+    fix at liebody/_integrate.py), and the other body's end check at the caller's too."""
+    with _recorded() as caught:
+        tr = liebody.integrate(_wheel_scene(2), omega0=[[0.04, -0.03, 0.02], [40.0, -30.0, 20.0]],
+                               dt=0.5, steps=700, controls=[0.01, -0.02, 0.03], method="rk4")
+    (w,) = _at_caller(caught)
+    assert "1 of 2 bodies failed" in str(w.message)
+    _at_caller(caught, liebody.InvariantWarning)  # body 0's |q| at rk4's large step
+    assert list(tr.status) == ["complete", "failed: non-finite state"]
+
+
+def test_a_wheel_runs_overflow_warns_at_the_callers_line(monkeypatch):
+    """|L| beyond the largest accepted (lowered here to 1, so that a plain wheel run
+    reaches it) stops a wheel run with a warning at the caller's line."""
+    monkeypatch.setattr(_engine, "MAX_MOMENTUM", 1.0)
+    monkeypatch.setattr(_ensemble, "MAX_MOMENTUM", 1.0)
+    with _recorded() as caught:
+        tr = liebody.integrate(_wheel_scene(), omega0=[40.0, -30.0, 20.0], dt=0.01,
+                               steps=300, controls=[0.01, -0.02, 0.03])
+    (w,) = _at_caller(caught)
+    assert "|L| reached" in str(w.message)
+    assert tr.status == "failed" and tr.failed_at is not None
 
 
 if __name__ == "__main__":  # pragma: no cover
