@@ -362,8 +362,6 @@ def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float
     n = q0.shape[0]
     inv = np.broadcast_to(1.0 / np.asarray(scene.moments, dtype=float), (n, 3))
     rotor = np.broadcast_to(rotor_momentum(scene), (n, 3))
-    with np.errstate(over="ignore"):  # (an energy beyond float64: inf, no numpy warning)
-        T0 = 0.5 * np.sum((m0 - rotor) ** 2 * inv, axis=1)
     V0 = np.zeros(n)
     potentials(model.code, model.params, model.shared, np.full(n, float(t0)),
                np.ascontiguousarray(q0), V0)
@@ -375,7 +373,9 @@ def diagnostic_reference(scene, model, q0: np.ndarray, m0: np.ndarray, t0: float
         V0[:] = np.nan
     g = np.linalg.norm(m0, axis=1)
     zero = np.zeros(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # (an energy beyond float64 is inf, without numpy's warning)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        T0 = 0.5 * np.sum((m0 - rotor) ** 2 * inv, axis=1)
         ref = np.column_stack([inv, code, zero, zero, T0 + V0, 1.0 / (T0 + np.abs(V0)), g,
                                1.0 / g, rotor])
     return np.ascontiguousarray(np.where(np.isinf(ref), 0.0, ref))
