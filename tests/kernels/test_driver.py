@@ -64,6 +64,9 @@ def test_unknown_stage_kind_is_an_error():
     ([S.DAMP, S.EXACT], S.F_EXACT),
     ([S.RK4], S.F_RK4),
     ([S.DMV, S.AXIS], S.F_GENERAL),
+    ([S.AXIS_SHIFTED, S.AXIS], S.F_ROTOR),
+    ([S.AXIS_SHIFTED, S.KICK], S.F_ROTOR_TORQUED),
+    ([S.AXIS_SHIFTED, S.DAMP, S.SPHERE], S.F_ROTOR_TORQUED),
 ])
 def test_plans_run_in_the_smallest_family(kinds, family):
     assert S.family_of(kinds) == family
@@ -82,6 +85,16 @@ def test_methods_compile_only_their_family(hlw):
     assert liebody.methods()["rattle"].plan(top, L0, 0.01).family == S.F_DMV
     damped = liebody.DampedBody(liebody.RigidBody([1.0, 2.0, 3.0]), eps=0.1)
     assert liebody.methods()["splitting2"].plan(damped, L0, 0.01).family == S.F_SPLITTING
+    # a rotor's turn (double-length parts carried through the step) only where there is
+    # a rotor: the rigid families do not compile it (a heavy top's first call 0.5 s less)
+    for family in (S.F_AXES, S.F_ROTATIONS, S.F_KICKED, S.F_SPLITTING):
+        assert not S.MEMBERS[family, S.AXIS_SHIFTED]
+    gyro = liebody.Gyrostat(liebody.RigidBody([1.0, 2.0, 3.0]), [0.0, 0.0, 0.5])
+    assert liebody.methods()["splitting2"].plan(gyro, L0, 0.01).family == S.F_ROTOR
+    wheels = liebody.ReactionWheels(liebody.RigidBody([1.0, 2.0, 3.0]), np.eye(3),
+                                    [0.1, 0.1, 0.1],
+                                    sources=[(1.0, liebody.orbits.Circular(0.01))])
+    assert liebody.methods()["splitting2"].plan(wheels, L0, 0.01).family == S.F_ROTOR_TORQUED
 
 
 @pytest.mark.kernel

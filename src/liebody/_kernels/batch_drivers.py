@@ -571,6 +571,98 @@ def batch_family11_diag(
         status[i] = st
     return 0
 
+_R12 = RUNNERS[12]
+
+
+@jit
+def batch_family12(
+        kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+        save_every, final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar,
+        ms, dref, dmax, model=(0,)):
+    shared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
+    for i in range(state.shape[0]):
+        if status[i] != STATUS_OK:
+            continue
+        d, s, st = _R12(
+            kinds, axes, coefs, clock, params[0 if pshared else i], slots, merge_ends, h, t0,
+            step0, n_steps, save_every, final, state[i], ctl[i], q_out[i, saved[i]:],
+            m_out[i, saved[i]:], torque_addr, mpar[0] if shared else mpar[i], ms, dref[i],
+            dmax[i], model)
+        done[i] += d
+        saved[i] += s
+        status[i] = st
+    return 0
+
+_D12 = DIAG_RUNNERS[12]
+
+
+@jit
+def batch_family12_diag(
+        kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+        save_every, final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar,
+        ms, dref, dmax, model=(0,)):
+    shared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
+    for i in range(state.shape[0]):
+        if status[i] != STATUS_OK:
+            continue
+        d, s, st = _D12(
+            kinds, axes, coefs, clock, params[0 if pshared else i], slots, merge_ends, h, t0,
+            step0, n_steps, save_every, final, state[i], ctl[i], q_out[i, saved[i]:],
+            m_out[i, saved[i]:], torque_addr, mpar[0] if shared else mpar[i], ms, dref[i],
+            dmax[i], model)
+        done[i] += d
+        saved[i] += s
+        status[i] = st
+    return 0
+
+_R13 = RUNNERS[13]
+
+
+@jit
+def batch_family13(
+        kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+        save_every, final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar,
+        ms, dref, dmax, model=(0,)):
+    shared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
+    for i in range(state.shape[0]):
+        if status[i] != STATUS_OK:
+            continue
+        d, s, st = _R13(
+            kinds, axes, coefs, clock, params[0 if pshared else i], slots, merge_ends, h, t0,
+            step0, n_steps, save_every, final, state[i], ctl[i], q_out[i, saved[i]:],
+            m_out[i, saved[i]:], torque_addr, mpar[0] if shared else mpar[i], ms, dref[i],
+            dmax[i], model)
+        done[i] += d
+        saved[i] += s
+        status[i] = st
+    return 0
+
+_D13 = DIAG_RUNNERS[13]
+
+
+@jit
+def batch_family13_diag(
+        kinds, axes, coefs, clock, params, slots, merge_ends, h, t0, step0, n_steps,
+        save_every, final, state, ctl, q_out, m_out, saved, done, status, torque_addr, mpar,
+        ms, dref, dmax, model=(0,)):
+    shared = mpar.shape[0] == 1
+    pshared = params.shape[0] == 1
+    for i in range(state.shape[0]):
+        if status[i] != STATUS_OK:
+            continue
+        d, s, st = _D13(
+            kinds, axes, coefs, clock, params[0 if pshared else i], slots, merge_ends, h, t0,
+            step0, n_steps, save_every, final, state[i], ctl[i], q_out[i, saved[i]:],
+            m_out[i, saved[i]:], torque_addr, mpar[0] if shared else mpar[i], ms, dref[i],
+            dmax[i], model)
+        done[i] += d
+        saved[i] += s
+        status[i] = st
+    return 0
+
 
 #: family code -> its driver for many bodies
 BATCH_RUNNERS = {
@@ -586,6 +678,8 @@ BATCH_RUNNERS = {
     9: batch_family9,
     10: batch_family10,
     11: batch_family11,
+    12: batch_family12,
+    13: batch_family13,
 }
 #: the same, keeping running diagnostics
 DIAG_BATCH_RUNNERS = {
@@ -601,4 +695,6 @@ DIAG_BATCH_RUNNERS = {
     9: batch_family9_diag,
     10: batch_family10_diag,
     11: batch_family11_diag,
+    12: batch_family12_diag,
+    13: batch_family13_diag,
 }

@@ -73,6 +73,8 @@ from liebody._kernels.stages import (
     F_RK4,
     F_RKMK4,
     F_ROTATIONS,
+    F_ROTOR,
+    F_ROTOR_TORQUED,
     F_SPLITTING,
     FAMILIES,
     KICK,
@@ -409,8 +411,8 @@ def _runner(family: int, diag: bool = False):
                 kind = kinds[j]
                 sj = slots[j]  # its row of params
                 # (the families with AXIS_SHIFTED: the test compiles away in the others)
-                if (family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING) \
-                        and carried and kind != AXIS_SHIFTED:
+                if (family == F_ROTOR or family == F_ROTOR_TORQUED) and carried \
+                        and kind != AXIS_SHIFTED:
                     w, x, y, z, m1, m2, m3 = fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey,
                                                           ez, e1, e2, e3)
                     ew, ex, ey, ez, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -419,15 +421,17 @@ def _runner(family: int, diag: bool = False):
                 if family == F_AXES:
                     r = axis_flow(w, x, y, z, m1, m2, m3, axes[j], params[sj, P_RATE], tau)
                     w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
-                elif family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING:
+                elif (family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING
+                      or family == F_ROTOR or family == F_ROTOR_TORQUED):
                     if family == F_KICKED and kind == KICK:
                         w, x, y, z, m1, m2, m3, status = _explicit_kick(
                             params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms, model)
-                    elif family == F_SPLITTING and (kind == KICK or kind == KICK_IMPLICIT):
+                    elif (family == F_SPLITTING or family == F_ROTOR_TORQUED) and (
+                            kind == KICK or kind == KICK_IMPLICIT):
                         w, x, y, z, m1, m2, m3, status = kick(
                             kind, params[sj], t, tau, w, x, y, z, m1, m2, m3, torque_addr, mp, ms,
                             model)
-                    elif family == F_SPLITTING and kind == DAMP:
+                    elif (family == F_SPLITTING or family == F_ROTOR_TORQUED) and kind == DAMP:
                         w, x, y, z, m1, m2, m3, status = _damp(params[sj], tau, w, x, y, z,
                                                                m1, m2, m3)
                     elif kind == AXIS:
@@ -437,7 +441,8 @@ def _runner(family: int, diag: bool = False):
                         r = axis_flow_recurring(w, x, y, z, m1, m2, m3, axes[j],
                                                 params[sj, P_RATE], tau)
                         w, x, y, z, m1, m2, m3 = r[0], r[1], r[2], r[3], r[4], r[5], r[6]
-                    elif kind == AXIS_SHIFTED:
+                    elif (family == F_ROTOR or family == F_ROTOR_TORQUED) \
+                            and kind == AXIS_SHIFTED:
                         # the rotor momentum at the midpoint of the stage's clock interval
                         # (exact for a rotor momentum linear in time: stages.py)
                         span = clock[j] * h
@@ -499,8 +504,7 @@ def _runner(family: int, diag: bool = False):
                     break
                 t += clock[j] * h
             # the step's end: its turns' trailing parts added in, once
-            if (family == F_ROTATIONS or family == F_KICKED or family == F_SPLITTING) \
-                    and carried:
+            if (family == F_ROTOR or family == F_ROTOR_TORQUED) and carried:
                 w, x, y, z, m1, m2, m3 = fold_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez,
                                                       e1, e2, e3)
                 ew, ex, ey, ez, e1, e2, e3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0

@@ -153,6 +153,8 @@ F_RK4 = 8
 F_LIE_EULER = 9
 F_RKMK4 = 10
 F_GENERAL = 11  # every kind (plans that mix kinds of several families)
+F_ROTOR = 12  # rotations and a rotor's axis term (free gyrostats, reaction wheels)
+F_ROTOR_TORQUED = 13  # the same with kicks and dissipation (a rotor under a torque)
 
 
 
@@ -167,9 +169,13 @@ _ROTATIONS = frozenset({AXIS, AXIS_RECURRING, SPHERE})
 #: family code -> the stage kinds its driver runs (in the order tried)
 FAMILIES: dict[int, frozenset[int]] = {
     F_AXES: frozenset({AXIS}),
-    F_ROTATIONS: _ROTATIONS | {AXIS_SHIFTED},
-    F_KICKED: _ROTATIONS | {KICK, AXIS_SHIFTED},
-    F_SPLITTING: _ROTATIONS | _KICKS | {DAMP, AXIS_SHIFTED},
+    F_ROTATIONS: _ROTATIONS,
+    F_KICKED: _ROTATIONS | {KICK},
+    F_SPLITTING: _ROTATIONS | _KICKS | {DAMP},
+    # (a rotor's turn carries double-length parts through a step: the rigid families
+    # above do not compile it)
+    F_ROTOR: _ROTATIONS | {AXIS_SHIFTED},
+    F_ROTOR_TORQUED: _ROTATIONS | _KICKS | {DAMP, AXIS_SHIFTED},
     F_DMV_FREE: frozenset({DMV}),
     F_DMV: _KICKS | {DMV},
     F_EXACT: _KICKS | {EXACT, DAMP},
