@@ -41,9 +41,8 @@ QNORM_TOL = 1e-6  # | |q| - 1 |, any method
 CASIMIR_TOL = 1e-9  # relative |L| drift, methods that keep |L| on torque-free scenes
 ENERGY_TOL = 1e-2  # relative energy error, symplectic or energy-keeping methods
 
-#: what :class:`interrupt_after_call` needs (a POSIX signal mask; the main thread)
+#: what :class:`interrupt_after_call` needs (a POSIX signal mask)
 _MASK = getattr(signal, "pthread_sigmask", None)
-_MAIN = threading.main_thread()
 _SIGINT = {signal.SIGINT}
 
 #: the largest |L| a run accepts or keeps: |L|^2 / (2 I) overflows float64 near 1e154
@@ -57,7 +56,7 @@ REASONS = {S.STATUS_NONFINITE: "non-finite state",
 
 
 @dataclass(frozen=True)
-class Failure:
+class StepFailure:
     """A body's failure, as the run's records hold it: the body (``None``: a one-body
     call's), the driver's status, the good steps before the failing one (counted from the
     run's start, or the call's for a :class:`liebody.Stepper`), the failing step's start
@@ -243,7 +242,7 @@ class interrupt_after_call:
 
     def __enter__(self) -> None:
         self.old = None
-        if _MASK is not None and threading.current_thread() is _MAIN:
+        if _MASK is not None and threading.current_thread() is threading.main_thread():
             self.old = _MASK(signal.SIG_BLOCK, _SIGINT)
 
     def __exit__(self, *exc) -> bool:
@@ -750,7 +749,7 @@ def torque_error(model, name, where, state, t0, dt, traj, step, u=None, i: int =
                        f"start state)", traj, step, t0)
 
 
-def failure_error(name: str, scene, model, failure: Failure, dt: float, where: str, traj,
+def failure_error(name: str, scene, model, failure: StepFailure, dt: float, where: str, traj,
                   u=None, reach: tuple = (0.0, 1.0)) -> Exception | None:
     """The error of one body's ``failure`` in a run of the method ``name`` (``where``: the
     words that place it; ``traj``: the samples before it, or ``None``): a user torque's

@@ -16,7 +16,7 @@ from liebody._engine import (  # noqa: F401 - REASONS and failure_message: re-ex
     MAX_MOMENTUM,
     REASONS,
     SHORT_TIMES_SAMPLES,
-    Failure,
+    StepFailure,
     batch_args,
     batch_runner,
     block_interrupts,
@@ -498,8 +498,8 @@ class Run:
         before it; a blow-up of the dynamics returns them with a warning
         (``stacklevel``: as for :meth:`failed_nonfinite`)."""
         n_keep = 1 + saved
-        failure = Failure(None, status, done, *failed_step_times(self.t0, done, self.dt),
-                          state)
+        failure = StepFailure(None, status, done,
+                              *failed_step_times(self.t0, done, self.dt), state)
         where = (f"{failed_step_words(done, failure.t, failure.failed_at)}; the {n_keep:,} "
                  f"samples before it are on this exception's .trajectory")
         # failed_at is the time the failing step was to reach, as for a blow-up and for

@@ -32,7 +32,7 @@ from liebody._engine import (
     N_STEPS,
     STEP0,
     T0,
-    Failure,
+    StepFailure,
     batch_args,
     batch_runner,
     body_chunks,
@@ -501,8 +501,8 @@ class Stepper:
         stepper's state (``state``: the last good state): :func:`failure_error`'s, or
         for a blow-up an :class:`IntegrationError`."""
         name, dt = self._method.name, self._dt
-        failure = Failure(None, status, done, *failed_step_times(self._t0, self._k + done, dt),
-                          state)
+        failure = StepFailure(None, status, done,
+                              *failed_step_times(self._t0, self._k + done, dt), state)
         where = (failed_step_words(done, failure.t, failure.failed_at, " of this call")
                  + "; the stepper is left as it was before the call")
         error = failure_error(name, self._scene, self._model, failure, dt, where, None,
