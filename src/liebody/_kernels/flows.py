@@ -184,6 +184,25 @@ def _dot2(a, b, c, d):
 
 
 @jit(inner=True)
+def _double_angle(half):
+    """libm's pair ``(s, c) = (sin half, cos half)``, ``d = c^2 + s^2 - 1`` and the double
+    angle's pair of the rounded ``(c, s)`` made unit, in double length: ``(c^2 - s^2) / (1 +
+    d) = ch + cl`` and ``2 c s / (1 + d) = sh + sl`` (error-free products and sums)."""
+    s2 = math.sin(half)
+    c2 = math.cos(half)
+    hc, lc = _two_product(c2, c2)
+    hs, ls = _two_product(s2, s2)
+    nn, en = _two_sum(hc, hs)
+    d = (nn - 1.0) + (en + (lc + ls))  # c^2 + s^2 - 1 (nn - 1 exact: Sterbenz)
+    ch, e = _two_sum(hc, -hs)
+    cl = (e + (lc - ls)) - d * ch
+    sc, lsc = _two_product(s2, c2)
+    sh = 2.0 * sc
+    sl = 2.0 * lsc - d * sh
+    return s2, c2, d, ch, cl, sh, sl
+
+
+@jit(inner=True)
 def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
     """Turn ``q`` by ``2 half`` and ``m`` by ``-2 half`` about body axis ``axis``, each
     component rounded about once (error-free products by fused multiply-adds, and sums).
@@ -196,17 +215,7 @@ def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
     error-free). A large turn's plain form rounds each component several times, each
     rounding of the order of the component.
     """
-    s2 = math.sin(half)
-    c2 = math.cos(half)
-    hc, lc = _two_product(c2, c2)
-    hs, ls = _two_product(s2, s2)
-    nn, en = _two_sum(hc, hs)
-    d = (nn - 1.0) + (en + (lc + ls))  # c^2 + s^2 - 1 (nn - 1 exact: Sterbenz)
-    ch, e = _two_sum(hc, -hs)
-    cl = (e + (lc - ls)) - d * ch  # (c^2 - s^2) / (1 + d) = ch + cl
-    sc, lsc = _two_product(s2, c2)
-    sh = 2.0 * sc
-    sl = 2.0 * lsc - d * sh  # 2 c s / (1 + d) = sh + sl
+    s2, c2, d, ch, cl, sh, sl = _double_angle(half)
     if axis == 0:
         a, b = m2, m3
     elif axis == 1:
@@ -312,17 +321,7 @@ def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, 
         y, ey = _carried_add(y, ey, s2, py, cm2 * y, cm2 * ey + s2 * fy)
         z, ez = _carried_add(z, ez, s2, pz, cm2 * z, cm2 * ez + s2 * fz)
     else:
-        s2 = math.sin(half)
-        c2 = math.cos(half)
-        hc, lc = _two_product(c2, c2)
-        hs, ls = _two_product(s2, s2)
-        nn, en = _two_sum(hc, hs)
-        d = (nn - 1.0) + (en + (lc + ls))  # c^2 + s^2 - 1 (nn - 1 exact: Sterbenz)
-        ch, e = _two_sum(hc, -hs)
-        cl = (e + (lc - ls)) - d * ch  # (c^2 - s^2) / (1 + d) = ch + cl
-        sc, lsc = _two_product(s2, c2)
-        sh = 2.0 * sc
-        sl = 2.0 * lsc - d * sh  # 2 c s / (1 + d) = sh + sl
+        s2, c2, d, ch, cl, sh, sl = _double_angle(half)
         ha, la = _dot2(ch, a, sh, b)
         hb, lb = _dot2(ch, b, -sh, a)
         ea, eb = (la + (cl * a + sl * b)) + (ch * ea + sh * eb), \
