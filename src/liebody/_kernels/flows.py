@@ -184,6 +184,27 @@ def _dot2(a, b, c, d):
 
 
 @jit(inner=True)
+def _axis_pair(axis, v1, v2, v3):
+    """The two components of ``v`` that a turn about body axis ``axis`` mixes, in the
+    turn's order: ``(v2, v3)``, ``(v3, v1)`` or ``(v1, v2)``."""
+    if axis == 0:
+        return v2, v3
+    if axis == 1:
+        return v3, v1
+    return v1, v2
+
+
+@jit(inner=True)
+def _with_axis_pair(axis, v1, v2, v3, a, b):
+    """``v`` with the pair of :func:`_axis_pair` replaced by ``(a, b)``."""
+    if axis == 0:
+        return v1, a, b
+    if axis == 1:
+        return b, v2, a
+    return a, b, v3
+
+
+@jit(inner=True)
 def _double_angle(half):
     """libm's pair ``(s, c) = (sin half, cos half)``, ``d = c^2 + s^2 - 1`` and the double
     angle's pair of the rounded ``(c, s)`` made unit, in double length: ``(c^2 - s^2) / (1 +
@@ -216,21 +237,11 @@ def _turn_compensated(w, x, y, z, m1, m2, m3, axis, half):
     rounding of the order of the component.
     """
     s2, c2, d, ch, cl, sh, sl = _double_angle(half)
-    if axis == 0:
-        a, b = m2, m3
-    elif axis == 1:
-        a, b = m3, m1
-    else:
-        a, b = m1, m2
+    a, b = _axis_pair(axis, m1, m2, m3)
     ha, ea = _dot2(ch, a, sh, b)
     hb, eb = _dot2(ch, b, -sh, a)
-    a, b = ha + (ea + (cl * a + sl * b)), hb + (eb + (cl * b - sl * a))
-    if axis == 0:
-        m2, m3 = a, b
-    elif axis == 1:
-        m3, m1 = a, b
-    else:
-        m1, m2 = a, b
+    m1, m2, m3 = _with_axis_pair(axis, m1, m2, m3, ha + (ea + (cl * a + sl * b)),
+                                 hb + (eb + (cl * b - sl * a)))
     qs, qe = _two_product(w, w)
     for comp in (x, y, z):
         p, pe = _two_product(comp, comp)
@@ -277,12 +288,8 @@ def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, 
     equals its one-body (rigid) run bit for bit.
     """
     half = 0.5 * tau * rate * (component(axis, m1, m2, m3) - shift)
-    if axis == 0:
-        a, b, ea, eb = m2, m3, e2, e3
-    elif axis == 1:
-        a, b, ea, eb = m3, m1, e3, e1
-    else:
-        a, b, ea, eb = m1, m2, e1, e2
+    a, b = _axis_pair(axis, m1, m2, m3)
+    ea, eb = _axis_pair(axis, e1, e2, e3)
     # q (c, s e_k) = c q + s (pw, px, py, pz): the partners of w, x, y, z in the product
     pw, px, py, pz = _turn_partners(axis, w, x, y, z)
     fw, fx, fy, fz = _turn_partners(axis, ew, ex, ey, ez)
@@ -299,7 +306,7 @@ def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, 
         ea, eb = ea + (cm * ea + s * eb), eb + (cm * eb - s * ea)
         ew, ex = ew + (cm2 * ew + s2 * fw), ex + (cm2 * ex + s2 * fx)
         ey, ez = ey + (cm2 * ey + s2 * fy), ez + (cm2 * ez + s2 * fz)
-        a, b = (m2, m3) if axis == 0 else ((m3, m1) if axis == 1 else (m1, m2))
+        a, b = _axis_pair(axis, m1, m2, m3)
     elif half * half < COMPENSATED_TURN:
         s2, c2, cm2 = sincos_turn(half)
         # m turned by the rotation of q's factor (1 + cm2, s2 e_k), whatever its norm
@@ -332,12 +339,8 @@ def axis_flow_carried(w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3, axis, 
         x, ex = _carried_dot(c2, x, s2, px, k, ex, fx)
         y, ey = _carried_dot(c2, y, s2, py, k, ey, fy)
         z, ez = _carried_dot(c2, z, s2, pz, k, ez, fz)
-    if axis == 0:
-        m2, m3, e2, e3 = a, b, ea, eb
-    elif axis == 1:
-        m3, m1, e3, e1 = a, b, ea, eb
-    else:
-        m1, m2, e1, e2 = a, b, ea, eb
+    m1, m2, m3 = _with_axis_pair(axis, m1, m2, m3, a, b)
+    e1, e2, e3 = _with_axis_pair(axis, e1, e2, e3, ea, eb)
     return w, x, y, z, m1, m2, m3, ew, ex, ey, ez, e1, e2, e3
 
 
