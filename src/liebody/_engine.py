@@ -167,7 +167,7 @@ def body_chunks(n: int, threads: int) -> list[slice]:
     """Contiguous chunks of ``n`` bodies, one per thread (at least 64 bodies each)."""
     if n < 128 or threads <= 1:
         return [slice(0, n)]  # (one chunk, at once)
-    parts = max(1, min(threads, n // 64))
+    parts = min(threads, n // 64)  # (at least 2 here)
     edges = np.linspace(0, n, parts + 1).round().astype(int)
     return [slice(int(a), int(b)) for a, b in itertools.pairwise(edges) if b > a]
 
